@@ -1,0 +1,5 @@
+import sys
+
+from ksbo_mav.cli import main
+
+sys.exit(main())

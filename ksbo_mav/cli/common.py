@@ -1,0 +1,58 @@
+"""Argument helpers shared by the command modules."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+import numpy as np
+
+from ksbo_mav.errors import InputError
+from ksbo_mav.profiles import Profile
+
+
+def parse_gains(text: str, profile: Profile) -> np.ndarray:
+    """A preset name (``default``, ``scg``) or ``d`` comma-separated numbers in the profile's order."""
+    text = text.strip()
+    if text and not any(ch.isdigit() for ch in text) and "," not in text and text.lower() not in {"nan", "inf"}:
+        return profile.preset(text)
+    parts = [p for p in text.replace(" ", "").split(",")]
+    if len(parts) != profile.dim:
+        raise InputError(f"--gains needs {profile.dim} comma-separated values ({', '.join(profile.labels)}) "
+                         f"or a preset name, got {len(parts)} value(s)")
+    try:
+        values = np.array([float(p) for p in parts])
+    except ValueError:
+        raise InputError(f"--gains: {text!r} contains a value that is not a number") from None
+    return values
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError("must be at least 1")
+    return value
+
+
+def to_json(obj: Any) -> str:
+    """JSON with NaN/inf written as null and numpy scalars/arrays converted."""
+
+    def clean(o: Any) -> Any:
+        if isinstance(o, dict):
+            return {str(k): clean(v) for k, v in o.items()}
+        if isinstance(o, (list, tuple)):
+            return [clean(v) for v in o]
+        if isinstance(o, np.ndarray):
+            return clean(o.tolist())
+        if isinstance(o, np.generic):
+            return clean(o.item())
+        if isinstance(o, float) and not math.isfinite(o):
+            return None
+        return o
+
+    return json.dumps(clean(obj), indent=2)

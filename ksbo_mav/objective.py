@@ -1,0 +1,142 @@
+"""The one objective interface: "fly these gains, return a scored trajectory".
+
+:class:`Trajectory` is what every source produces (in-process simulator, MAVLink vehicle, offline tlog), and
+:func:`ksbo_mav.scoring.score` turns it into P(a) the same way whatever the source. :class:`SimObjective`
+is the in-process planar simulator, vectorised for optimisers and benchmarks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from ksbo_mav.profiles import Profile, load_profile
+from ksbo_mav.scoring import Score, ScoreConfig, score, score_rollout
+from ksbo_sim.episode import REASONS, EpisodeConfig, Rollout, fixed_initial_states, random_initial_states, simulate
+
+
+@dataclass
+class Trajectory:
+    """A flown (or logged) trajectory, planar task coordinates (x, z up).
+
+    Attributes:
+        t: (n,) sample times in seconds from the episode start.
+        steps: (n,) control step k after which sample i was taken.
+        states: (n, 6) [x, vx, z, vz, theta, theta_dot].
+        refs: (n, 6) reference state at the same instants.
+        inputs: (n, 2) pair thrusts (N) or None when the source does not report them.
+        L: control steps flown.
+        source: where it came from ("sim", "mavlink", "tlog").
+    """
+
+    t: np.ndarray
+    steps: np.ndarray
+    states: np.ndarray
+    refs: np.ndarray
+    inputs: np.ndarray | None
+    L: int
+    source: str = "sim"
+
+    def score(self, config: ScoreConfig = ScoreConfig()) -> Score:
+        return score(self.states, self.refs, self.steps, self.L, self.inputs, config)
+
+    @classmethod
+    def from_rollout(cls, rollout: Rollout, i: int = 0) -> "Trajectory":
+        """Row ``i`` of a simulator rollout, cut at the last flown step."""
+        L = int(rollout.L[i])
+        return cls(t=rollout.t[1 : L + 1], steps=np.arange(L), states=rollout.states[i, 1 : L + 1],
+                   refs=rollout.refs[1 : L + 1], inputs=rollout.inputs[i, :L], L=L, source="sim")
+
+
+@dataclass
+class Flight:
+    """The result of flying one gain vector: the trajectory, its score, and why it ended."""
+
+    gains: np.ndarray
+    trajectory: Trajectory
+    score: dict[str, Any]
+    outcome: str = "completed"  # or a crash / abort reason
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def P(self) -> float:
+        return float(self.score["P"])
+
+
+class Objective(Protocol):
+    """Anything that can fly gains and score them: the simulator, a MAVLink vehicle, a log replayer."""
+
+    profile: Profile
+
+    def fly(self, gains: np.ndarray) -> Flight: ...
+
+
+class SimObjective:
+    """The planar simulator as an objective.
+
+    Each call flies one episode from a fresh random initial velocity (a noisy evaluation, as on a real
+    vehicle); :meth:`expected` re-flies gains over the fixed initial conditions (the honest value of a
+    recommendation). Gains are physical values in the profile's order.
+
+    Args:
+        profile: vehicle profile (default ``sim-planar``).
+        seed: seed of the initial-velocity generator.
+        episode: episode settings; score: P(a) constants.
+        chunk: episodes simulated per batch (bounds memory: a batch stores its full trajectories).
+    """
+
+    def __init__(self, profile: Profile | str = "sim-planar", seed: int | None = None,
+                 episode: EpisodeConfig | None = None, score: ScoreConfig | None = None, chunk: int = 2048) -> None:
+        self.profile = load_profile(profile) if isinstance(profile, str) else profile
+        self.episode = episode or EpisodeConfig()
+        self.score_config = score or ScoreConfig(L_expected=self.episode.steps)
+        self.rng = np.random.default_rng(seed)
+        self.chunk = chunk
+        self.n_episodes = 0
+
+    def __call__(self, x: np.ndarray) -> float:
+        return float(self.batch(np.asarray(x, dtype=float)[None])[0])
+
+    def scores(self, X: np.ndarray, init: np.ndarray) -> Score:
+        """Score of each row of X (n, d) flown from the matching row of ``init`` (n, 6)."""
+        X = np.atleast_2d(self.profile.check_gains(X, within_box=False))
+        parts = []
+        for lo in range(0, X.shape[0], self.chunk):
+            r = simulate(X[lo : lo + self.chunk], init[lo : lo + self.chunk], self.episode)
+            parts.append(score_rollout(r, self.score_config))
+        self.n_episodes += X.shape[0]
+        return _concat(parts)
+
+    def batch(self, X: np.ndarray) -> np.ndarray:
+        """(n,) P of one episode per row of X (n, d), each from a fresh random initial velocity."""
+        X = np.atleast_2d(X)
+        init = random_initial_states(X.shape[0], self.rng, self.episode)
+        return self.scores(X, init).P
+
+    def expected(self, X: np.ndarray, inits: np.ndarray | None = None) -> np.ndarray:
+        """(n,) mean P over the fixed initial conditions (8, seed 20240611, unless ``inits`` is given)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        inits = fixed_initial_states(config=self.episode) if inits is None else np.atleast_2d(inits)
+        n, m = X.shape[0], inits.shape[0]
+        P = self.scores(np.repeat(X, m, axis=0), np.tile(inits, (n, 1))).P
+        return P.reshape(n, m).mean(axis=1)
+
+    def fly(self, gains: np.ndarray, init: np.ndarray | None = None) -> Flight:
+        """Fly one episode and keep its trajectory (for plots, logs and the MAVLink comparison)."""
+        gains = self.profile.check_gains(gains, within_box=False)
+        init = random_initial_states(1, self.rng, self.episode)[0] if init is None else np.asarray(init, float)
+        r = simulate(gains, init, self.episode)
+        self.n_episodes += 1
+        traj = Trajectory.from_rollout(r)
+        return Flight(gains=gains, trajectory=traj, score=traj.score(self.score_config).item(),
+                      outcome=REASONS[int(r.reason[0])], meta={"init": init.tolist()})
+
+
+def _concat(parts: list[Score]) -> Score:
+    if len(parts) == 1:
+        return parts[0]
+    cat = lambda name: np.concatenate([getattr(p, name) for p in parts])  # noqa: E731
+    return Score(P=cat("P"), JQ=cat("JQ"), JR=cat("JR"), JR_scaled=cat("JR_scaled"), L=cat("L"),
+                 L_expected=parts[0].L_expected, complete=cat("complete"))

@@ -1,0 +1,84 @@
+"""Method options: one validated dataclass, per-method defaults, keyword overrides from :func:`optimize`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+from typing import Any, Mapping
+
+from ksbo_mav.errors import InputError
+
+
+@dataclass(frozen=True)
+class Options:
+    """Every tunable of the optimisers (unit-cube units). Each method reads the fields it needs.
+
+    Safe GP methods (ksbo, standard, safeopt, linebo):
+        beta: safety multiplier (certified safe ⇔ μ − β σ ≥ p_min); beta_ucb: acquisition multiplier (None = beta).
+        rule: "ucb" (expansion for ``expansion_iters`` BO iterations, then safe UCB) or "safeopt".
+        boundary_tol: boundary band in units of the prior std.
+        n_global, n_local, local_scales: candidates per iteration (Sobol; Gaussian clouds around safe points).
+        refit_every: full GP refit every k iterations (0: rank-one updates only); optimize_hypers: ML-II on refits.
+        recommend: "mean" or "lcb" among evaluated certified-safe points.
+        lengthscale, signal_std, signal_scale, noise_std, noise_ratio: GP prior (see opt.model.ModelSpec).
+    Kernel selection (ksbo):
+        orders: fixed orders (skips selection); top: how many orders to keep; trials: Algorithm-1 repetitions;
+        min_select: fewest observations for selection (fewer → default_orders); dims: "all", "forest" or
+        "permutation" (dimension selection per kept order); dropped: what happens to unselected dimensions —
+        "fixed" (held at x0, ignored by the kernel) or "order1" (kept in an order-1 term, still optimised).
+    LineBO: line_budget (max queries per line), directions ("random" or "coordinate"), line_points (grid size).
+    Unconstrained (ucb, ei): unconstrained_refit (ML-II every k iterations), xi (EI margin).
+    """
+
+    beta: float = 2.0
+    beta_ucb: float | None = None
+    rule: str = "ucb"
+    expansion_iters: int = 10
+    boundary_tol: float = 0.1
+    n_global: int = 256
+    n_local: int = 1536
+    local_scales: tuple[float, ...] = (0.02, 0.05, 0.1, 0.2)
+    refit_every: int = 0
+    optimize_hypers: bool = False
+    recommend: str = "mean"
+    lengthscale: float = 0.2
+    signal_std: float | None = None
+    signal_scale: float = 2.0
+    noise_std: float | None = None
+    noise_ratio: float = 0.02
+    orders: tuple[int, ...] | None = None
+    top: int = 3
+    trials: int = 200
+    min_select: int = 10
+    default_orders: tuple[int, ...] = (1, 2, 3)
+    dims: str = "all"
+    dropped: str = "fixed"
+    line_budget: int = 10
+    directions: str = "random"
+    line_points: int = 300
+    unconstrained_refit: int = 1
+    xi: float = 0.0
+
+    def update(self, overrides: Mapping[str, Any]) -> "Options":
+        """Copy with ``overrides`` applied; unknown names raise :class:`InputError`."""
+        names = {f.name for f in fields(self)}
+        bad = sorted(set(overrides) - names)
+        if bad:
+            raise InputError(f"unknown option(s) {', '.join(bad)}; known: {', '.join(sorted(names))}")
+        return replace(self, **dict(overrides))
+
+
+#: Defaults that differ per method (applied before the user's overrides).
+METHOD_DEFAULTS: dict[str, dict[str, Any]] = {
+    "ksbo": {},
+    "standard": {},
+    "safeopt": {"rule": "safeopt", "lengthscale": 0.1},
+    "linebo": {"lengthscale": 0.1},
+    "ucb": {},
+    "ei": {},
+    "random": {},
+}
+
+
+def options_for(method: str, overrides: Mapping[str, Any] | None = None) -> Options:
+    """Options of ``method`` with the user's ``overrides``."""
+    return Options().update(METHOD_DEFAULTS.get(method, {})).update(overrides or {})

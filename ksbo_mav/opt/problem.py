@@ -1,0 +1,147 @@
+"""The optimisation problem as every method sees it: unit cube, budgeted evaluator, timing.
+
+Methods work in the unit cube ``[0, 1]^d``; :class:`Problem` maps to physical units, counts calls of the user's
+function, enforces the budget and measures optimiser overhead (wall time between the end of one call of ``fun``
+and the start of the next, i.e. everything except the objective itself).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+
+class BudgetExhausted(RuntimeError):
+    """A method tried to call ``fun`` more often than the budget allows (a bug in the method)."""
+
+
+@dataclass
+class Problem:
+    """Budgeted objective in the unit cube.
+
+    Attributes:
+        fun: physical-unit objective ``fun(x: (d,)) -> float``; larger is better, ``< p_min`` unsafe.
+        lower, upper: (d,) box bounds (physical).
+        x0: (d,) known-safe start in the unit cube.
+        budget: maximum number of calls of ``fun``.
+        p_min: safety threshold.
+        prior_X: (m, d) prior inputs in the unit cube; prior_y: (m,) their values.
+        callback: ``callback(i, x, y) -> bool | None`` after each call (physical x); truthy stops the run
+            (sets ``stopped``; ``remaining`` is then 0).
+    """
+
+    fun: Callable[[np.ndarray], float]
+    lower: np.ndarray
+    upper: np.ndarray
+    x0: np.ndarray
+    budget: int
+    p_min: float = 0.0
+    prior_X: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    prior_y: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    callback: Callable[[int, np.ndarray, float], bool | None] | None = None
+    X: list[np.ndarray] = field(default_factory=list, init=False)
+    y: list[float] = field(default_factory=list, init=False)
+    seconds: list[float] = field(default_factory=list, init=False)
+    stopped: bool = field(default=False, init=False)
+    _t_last: float = field(default=0.0, init=False)
+
+    def __post_init__(self) -> None:
+        self.lower = np.asarray(self.lower, dtype=float)
+        self.upper = np.asarray(self.upper, dtype=float)
+        self.x0 = np.asarray(self.x0, dtype=float)
+        if self.prior_X.size == 0:
+            self.prior_X = np.zeros((0, self.dim))
+        self._t_last = time.perf_counter()
+
+    @property
+    def dim(self) -> int:
+        return int(self.lower.shape[0])
+
+    @property
+    def n_evals(self) -> int:
+        return len(self.y)
+
+    @property
+    def remaining(self) -> int:
+        """Evaluations left; 0 once the callback asked to stop, so every method's loop ends there."""
+        return 0 if self.stopped else self.budget - len(self.y)
+
+    def to_physical(self, u: np.ndarray) -> np.ndarray:
+        """(…, d) unit-cube points → physical units."""
+        return self.lower + np.asarray(u, dtype=float) * (self.upper - self.lower)
+
+    def to_unit(self, x: np.ndarray) -> np.ndarray:
+        """(…, d) physical points → unit cube."""
+        return (np.asarray(x, dtype=float) - self.lower) / (self.upper - self.lower)
+
+    def evaluate(self, u: np.ndarray) -> float:
+        """Call ``fun`` once at unit-cube point ``u`` (d,), record it and return its value."""
+        if self.budget - len(self.y) <= 0:
+            raise BudgetExhausted(f"budget of {self.budget} evaluations already used")
+        start = time.perf_counter()
+        self.seconds.append(start - self._t_last)
+        u = np.clip(np.asarray(u, dtype=float).reshape(self.dim), 0.0, 1.0)
+        x = self.to_physical(u)
+        value = float(self.fun(x.copy()))
+        if not np.isfinite(value):
+            # A crash that returns NaN is still an evaluation; treat it as the worst unsafe outcome we can
+            # represent rather than poisoning the GP.
+            value = float(self.p_min - 1.0)
+        self.X.append(u)
+        self.y.append(value)
+        if self.callback is not None and self.callback(len(self.y) - 1, x, value):
+            self.stopped = True
+        self._t_last = time.perf_counter()
+        return value
+
+    def data(self) -> tuple[np.ndarray, np.ndarray]:
+        """All observations so far, prior first: (n, d) unit-cube inputs and (n,) values."""
+        X = np.vstack([self.prior_X, np.asarray(self.X).reshape(-1, self.dim)])
+        y = np.concatenate([self.prior_y, np.asarray(self.y, dtype=float)])
+        return X, y
+
+
+def build_result(
+    problem: Problem,
+    method: str,
+    index: int,
+    *,
+    mu: float | None = None,
+    lcb: float | None = None,
+    orders: tuple[int, ...] | None = None,
+    dims: tuple[int, ...] | None = None,
+    fallbacks: int = 0,
+    info: dict | None = None,
+) -> "OptimizeResult":
+    """Assemble the :class:`OptimizeResult` for the recommendation ``problem.data()[0][index]``.
+
+    ``fun`` is the mean of every observation at exactly that point (prior included), since safe BO may
+    re-evaluate a point and a single noisy value would flatter it.
+    """
+    from ksbo_mav.opt.result import OptimizeResult
+
+    X, y = problem.data()
+    u = X[index]
+    same = np.all(np.abs(X - u) <= 1e-12, axis=1)
+    y_eval = np.asarray(problem.y, dtype=float)
+    return OptimizeResult(
+        x=problem.to_physical(u),
+        fun=float(np.mean(y[same])),
+        X=problem.to_physical(np.asarray(problem.X).reshape(-1, problem.dim)),
+        y=y_eval,
+        n_unsafe=int(np.sum(y_eval < problem.p_min)),
+        method=method,
+        p_min=problem.p_min,
+        prior_X=problem.to_physical(problem.prior_X),
+        prior_y=np.asarray(problem.prior_y, dtype=float).copy(),
+        orders=orders,
+        dims=dims,
+        mu=mu,
+        lcb=lcb,
+        seconds=np.asarray(problem.seconds, dtype=float),
+        fallbacks=fallbacks,
+        info=info or {},
+    )

@@ -1,0 +1,1 @@
+"""Vehicle profiles (TOML data files), installed as the data package ``ksbo_params``."""

@@ -1,0 +1,169 @@
+"""Figure-8 tracking episodes: many gain vectors / initial conditions flown at once.
+
+Timing follows SCG: at control step k the controller sees reference X_GOAL[k] (time k*dt), the plant
+integrates one period, and the cost compares the new state with X_GOAL[k+1]. An episode stops early as
+soon as the state leaves the environment bounds; the number of control steps flown is L.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ksbo_sim.constants import SCG_CRAZYFLIE, QuadConstants
+from ksbo_sim.dynamics import integrate
+from ksbo_sim.figure8 import Figure8
+from ksbo_sim.pid import PlanarPID
+
+#: Seed of the fixed initial conditions used for the honest "re-flown" expected score.
+FIXED_INIT_SEED = 20240611
+
+#: Crash codes stored in :attr:`Rollout.reason`.
+OK, OUT_X, GROUND, CEILING, TILT = 0, 1, 2, 3, 4
+REASONS = {OK: "completed", OUT_X: "|x| > x limit", GROUND: "hit the ground", CEILING: "z above ceiling",
+           TILT: "pitch beyond tilt limit"}
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Environment bounds (SCG quadrotor ``_get_done``); leaving them ends the episode (unsafe)."""
+
+    x_max: float = 2.0
+    z_min: float = -0.05
+    z_max: float = 2.0
+    tilt_max_deg: float = 85.0
+
+    def violation(self, state: np.ndarray) -> np.ndarray:
+        """(B,) crash code of each state (0 = inside). NaN states count as leaving the box."""
+        x, z, th = state[:, 0], state[:, 2], state[:, 4]
+        code = np.zeros(state.shape[0], dtype=np.int8)
+        code[~(np.abs(th) <= math.radians(self.tilt_max_deg))] = TILT
+        code[~(z <= self.z_max)] = CEILING
+        code[~(z >= self.z_min)] = GROUND
+        code[~(np.abs(x) <= self.x_max)] = OUT_X
+        return code
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """Episode settings; defaults are the shared fact sheet's recommendations (part C)."""
+
+    ctrl_freq: int = 50
+    phys_freq: int = 1000
+    laps: int = 2
+    figure8: Figure8 = field(default_factory=Figure8)
+    bounds: Bounds = field(default_factory=Bounds)
+    constants: QuadConstants = SCG_CRAZYFLIE
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.ctrl_freq
+
+    @property
+    def n_sub(self) -> int:
+        if self.phys_freq % self.ctrl_freq:
+            raise ValueError("phys_freq must be a multiple of ctrl_freq")
+        return self.phys_freq // self.ctrl_freq
+
+    @property
+    def steps(self) -> int:
+        """Control steps in a full episode (600 for 2 laps of 6 s at 50 Hz)."""
+        return int(round(self.laps * self.figure8.period * self.ctrl_freq))
+
+    def reference(self) -> np.ndarray:
+        """(steps + 1, 6) reference states X_GOAL[k] at t = k dt."""
+        return self.figure8.state(np.arange(self.steps + 1) * self.dt)
+
+
+@dataclass
+class Rollout:
+    """Result of :func:`simulate` for B episodes of N control steps.
+
+    Attributes:
+        t: (N + 1,) times of the state samples.
+        states: (B, N + 1, 6) states; row 0 is the initial state; NaN after an early stop.
+        refs: (N + 1, 6) reference states X_GOAL.
+        inputs: (B, N, 2) thrusts applied during step k; NaN after an early stop.
+        L: (B,) control steps flown.
+        reason: (B,) crash code (see ``REASONS``), 0 for a completed episode.
+    """
+
+    t: np.ndarray
+    states: np.ndarray
+    refs: np.ndarray
+    inputs: np.ndarray
+    L: np.ndarray
+    reason: np.ndarray
+
+    @property
+    def L_expected(self) -> int:
+        return self.inputs.shape[1]
+
+
+def random_initial_states(n: int, rng: np.random.Generator, config: EpisodeConfig | None = None,
+                          v_max: float = 1.0) -> np.ndarray:
+    """(n, 6) initial states at the figure-8 origin with a random velocity v0 (cos phi, sin phi).
+
+    v0 ~ U(0, v_max) m/s and phi ~ U(0, 2 pi), pitch and pitch rate 0 (fact sheet part C).
+    """
+    config = config or EpisodeConfig()
+    origin = config.figure8.position(0.0)
+    v0 = rng.uniform(0.0, v_max, n)
+    phi = rng.uniform(0.0, 2.0 * math.pi, n)
+    s = np.zeros((n, 6))
+    s[:, 0], s[:, 2] = origin[0], origin[1]
+    s[:, 1], s[:, 3] = v0 * np.cos(phi), v0 * np.sin(phi)
+    return s
+
+
+def fixed_initial_states(n: int = 8, seed: int = FIXED_INIT_SEED, config: EpisodeConfig | None = None) -> np.ndarray:
+    """The fixed initial conditions of the re-flown expected score (8 by default, seed 20240611)."""
+    return random_initial_states(n, np.random.default_rng(seed), config)
+
+
+def simulate(gains: np.ndarray, init: np.ndarray, config: EpisodeConfig | None = None) -> Rollout:
+    """Fly B figure-8 episodes at once.
+
+    Args:
+        gains: (B, 9) or (9,) PID gains (broadcast against ``init``).
+        init: (B, 6) or (6,) initial states.
+    Returns:
+        A :class:`Rollout`. Crashed episodes leave the working batch, so a batch that is mostly unsafe is cheap.
+    """
+    config = config or EpisodeConfig()
+    gains = np.atleast_2d(np.asarray(gains, dtype=float))
+    init = np.atleast_2d(np.asarray(init, dtype=float))
+    B = max(gains.shape[0], init.shape[0])
+    gains = np.broadcast_to(gains, (B, 9)).copy()
+    init = np.broadcast_to(init, (B, 6)).copy()
+    N, dt, n_sub, c = config.steps, config.dt, config.n_sub, config.constants
+    refs = config.reference()
+    states = np.full((B, N + 1, 6), np.nan)
+    inputs = np.full((B, N, 2), np.nan)
+    states[:, 0] = init
+    L = np.full(B, N, dtype=np.int64)
+    reason = np.zeros(B, dtype=np.int8)
+
+    active = np.arange(B)
+    s = init.copy()
+    pid = PlanarPID(gains, c, dt)
+    pid.reset()
+    for k in range(N):
+        u = pid(s, refs[k, (0, 2)], refs[k, (1, 3)])
+        s = integrate(s, u, c, dt, n_sub)
+        states[active, k + 1] = s
+        inputs[active, k] = u
+        code = config.bounds.violation(s)
+        crashed = code != OK
+        if crashed.any():
+            gone = active[crashed]
+            L[gone] = k + 1
+            reason[gone] = code[crashed]
+            keep = ~crashed
+            active, s = active[keep], s[keep]
+            pid.select(keep)
+            if active.size == 0:
+                break
+    return Rollout(t=np.arange(N + 1) * dt, states=states, refs=refs, inputs=inputs, L=L, reason=reason)
