@@ -23,7 +23,7 @@ from ksbo_mav.objective import SimObjective  # noqa: E402
 from ksbo_mav.profiles import load_profile  # noqa: E402
 from ksbo_mav.scoring import score_rollout  # noqa: E402
 from ksbo_sim import random_initial_states, simulate  # noqa: E402
-from ksbo_sim.scalar import simulate_one  # noqa: E402
+from ksbo_sim.scalar import simulate_one, simulate_parallel  # noqa: E402
 
 
 def best_of(fn, repeats: int) -> float:
@@ -44,6 +44,7 @@ def main() -> None:
     a0 = prof.default
     init1 = random_initial_states(1, rng)[0]
     rows = []
+    # BLAS pinned to 1 thread; the numba backend uses its own thread pool (2 threads on this machine).
     with threadpool_limits(1):
         simulate_one(a0, init1)  # numba compile (cached on disk afterwards)
         t_one = best_of(lambda: simulate_one(a0, init1), 20)
@@ -56,8 +57,12 @@ def main() -> None:
             X = np.tile(a0, (B, 1)) if label.startswith("a0") else prof.from_unit(rng.uniform(size=(B, 9)))
             init = random_initial_states(B, rng)
             t = best_of(lambda: score_rollout(simulate(X, init)), 2 if B <= 1000 else 1)
-            rows.append((f"batched, B = {B}, {label}, incl. scoring", f"{t / B * 1e3:.3f} ms/episode",
+            rows.append((f"numpy batched, B = {B}, {label}, incl. scoring", f"{t / B * 1e3:.3f} ms/episode",
                          f"{t:.2f} s total"))
+            simulate_parallel(X[:2], init[:2])  # compile
+            t = best_of(lambda: score_rollout(simulate_parallel(X, init)), 2 if B <= 1000 else 1)
+            rows.append((f"numba parallel (2 threads), B = {B}, {label}, incl. scoring",
+                         f"{t / B * 1e3:.3f} ms/episode", f"{t:.2f} s total"))
         obj = SimObjective(prof, seed=1)
         X = prof.from_unit(rng.uniform(size=(20000, 9)))
         P = obj.batch(X)

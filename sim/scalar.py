@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ksbo_sim.episode import EpisodeConfig, Rollout
 
@@ -78,16 +78,56 @@ def _episode(gains, init, refs, consts, limits, dt, n_sub):  # pragma: no cover 
     return states, inputs, N, 0
 
 
-def simulate_one(gains: np.ndarray, init: np.ndarray, config: EpisodeConfig | None = None) -> Rollout:
-    """Fly one episode; returns a :class:`Rollout` with batch size 1 (same layout as ``simulate``)."""
-    config = config or EpisodeConfig()
+@njit(cache=True, parallel=True)
+def _episodes(gains, init, refs, consts, limits, dt, n_sub):  # pragma: no cover - compiled
+    B, N = gains.shape[0], refs.shape[0] - 1
+    states = np.empty((B, N + 1, 6))
+    inputs = np.empty((B, N, 2))
+    L = np.empty(B, dtype=np.int64)
+    reason = np.empty(B, dtype=np.int8)
+    for i in prange(B):
+        s, u, n, r = _episode(gains[i], init[i], refs, consts, limits, dt, n_sub)
+        states[i] = s
+        inputs[i] = u
+        L[i] = n
+        reason[i] = r
+    return states, inputs, L, reason
+
+
+def _args(config: EpisodeConfig) -> tuple:
     c, b = config.constants, config.bounds
     consts = (c.mass, c.iyy, c.moment_arm, c.g, c.kf, c.pwm2rpm_scale, c.pwm2rpm_const, c.pwm_min, c.pwm_max,
               c.max_torque_pwm, c.pos_integral_limit_x, c.pos_integral_limit_z, c.pitch_integral_limit)
     limits = (b.x_max, b.z_min, b.z_max, math.radians(b.tilt_max_deg))
+    return consts, limits
+
+
+def simulate_one(gains: np.ndarray, init: np.ndarray, config: EpisodeConfig | None = None) -> Rollout:
+    """Fly one episode; returns a :class:`Rollout` with batch size 1 (same layout as ``simulate``)."""
+    config = config or EpisodeConfig()
+    consts, limits = _args(config)
     refs = config.reference()
     states, inputs, L, reason = _episode(np.asarray(gains, dtype=float).reshape(9),
                                          np.asarray(init, dtype=float).reshape(6), refs, consts, limits,
                                          config.dt, config.n_sub)
     return Rollout(t=np.arange(refs.shape[0]) * config.dt, states=states[None], refs=refs, inputs=inputs[None],
                    L=np.array([L]), reason=np.array([reason], dtype=np.int8))
+
+
+def simulate_parallel(gains: np.ndarray, init: np.ndarray, config: EpisodeConfig | None = None) -> Rollout:
+    """Many episodes, each on the compiled scalar path, spread over all cores (numba ``prange``).
+
+    Same layout as :func:`ksbo_sim.episode.simulate`; the fast backend for large batches. Chattering gains are
+    chaotic, so rows can differ from the numpy path beyond round-off (see tests/test_sim_task.py).
+    """
+    config = config or EpisodeConfig()
+    gains = np.atleast_2d(np.asarray(gains, dtype=float))
+    init = np.atleast_2d(np.asarray(init, dtype=float))
+    B = max(gains.shape[0], init.shape[0])
+    gains = np.ascontiguousarray(np.broadcast_to(gains, (B, 9)))
+    init = np.ascontiguousarray(np.broadcast_to(init, (B, 6)))
+    consts, limits = _args(config)
+    refs = config.reference()
+    states, inputs, L, reason = _episodes(gains, init, refs, consts, limits, config.dt, config.n_sub)
+    return Rollout(t=np.arange(refs.shape[0]) * config.dt, states=states, refs=refs, inputs=inputs, L=L,
+                   reason=reason)

@@ -97,6 +97,20 @@ def test_objective_interfaces_agree():
     assert obj.batch(np.stack([A0] * 5)).shape == (5,)
 
 
+def test_parallel_compiled_backend_equals_scalar_path():
+    from ksbo_sim.scalar import simulate_parallel
+
+    X = _random_gains(16, 21)
+    init = random_initial_states(16, np.random.default_rng(22))
+    par = simulate_parallel(X, init)
+    for i in range(16):
+        one = simulate_one(X[i], init[i])
+        np.testing.assert_array_equal(one.states[0], par.states[i])
+        assert one.L[0] == par.L[i]
+    obj = SimObjective(seed=0, backend="numba")
+    assert obj.expected(A0)[0] == pytest.approx(SimObjective(seed=0).expected(A0)[0], abs=0.01)
+
+
 def test_objective_rejects_bad_gains():
     from ksbo_mav.errors import InputError
 
