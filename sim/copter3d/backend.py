@@ -19,9 +19,11 @@ wind (written to a temporary directory; engine/systems come from the wheel). Uni
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import math
 import os
 import shutil
+import sys
 import tempfile
 from dataclasses import dataclass
 from typing import Iterator
@@ -41,19 +43,22 @@ MOTOR_XY = np.array([[0.1651, 0.1651], [-0.1651, -0.1651], [0.1651, -0.1651], [-
 
 @contextlib.contextmanager
 def silenced_fds() -> Iterator[None]:
-    """Send C-level stdout/stderr to /dev/null (JSBSim prints config-version and "Failed to tie" warnings)."""
+    """Silence stdout/stderr at fd and Python level (JSBSim prints a banner, config-version and "Failed to tie")."""
     saved = [os.dup(1), os.dup(2)]
     devnull = os.open(os.devnull, os.O_WRONLY)
     try:
-        with contextlib.suppress(Exception):
-            import sys
-
-            sys.stdout.flush()
-            sys.stderr.flush()
+        sys.stdout.flush()
+        sys.stderr.flush()
         os.dup2(devnull, 1)
         os.dup2(devnull, 2)
-        yield
+        # The jsbsim module routes its C++ output through Python's sys.stdout, so swap those too.
+        with open(os.devnull, "w") as sink, contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+            yield
     finally:
+        # JSBSim writes through C stdio; when stdout is a pipe it is block-buffered, so flush it while it
+        # still points at /dev/null, or the warnings come out later on the real stdout.
+        with contextlib.suppress(Exception):
+            ctypes.CDLL(None).fflush(None)
         os.dup2(saved[0], 1)
         os.dup2(saved[1], 2)
         for fd in (*saved, devnull):
@@ -94,16 +99,15 @@ class F450Backend:
     """One JSBSim FDM of the F450 at a fixed physics step; NED position relative to the reset point.
 
     Args:
-        dt: physics step in seconds (2 ms: the propeller/engine model is stable and hover is clean there).
+        dt: physics step in seconds (2 or 2.5 ms both give the same hover and flights; the vehicle uses 2.5 ms).
         rotor_drag: linear drag coefficient c in 1/s (0 = the stock aircraft files).
         origin_alt: metres above ground of NED z = 0 (the ground is far below so the flights never touch it).
     """
 
-    def __init__(self, dt: float = 0.002, rotor_drag: float = 0.0, origin_alt: float = 100.0) -> None:
+    def __init__(self, dt: float = 0.0025, rotor_drag: float = 0.0, origin_alt: float = 100.0) -> None:
         self.dt = dt
         self.rotor_drag = rotor_drag
         self.origin_alt = origin_alt
-        self._tmpdir: str | None = None
         root = jsbsim.get_default_root_dir()
         with silenced_fds():
             self.fdm = jsbsim.FGFDMExec(root)
@@ -130,9 +134,9 @@ class F450Backend:
 
     def _load_with_rotor_drag(self, root: str, c: float) -> None:
         """Copy aircraft/F450 to a temp dir and add a DRAG term m*c*V (lbf) to its Aero.xml."""
-        self._tmpdir = tempfile.mkdtemp(prefix="ksbo_f450_")
+        tmp = tempfile.mkdtemp(prefix="ksbo_f450_")
         src = os.path.join(root, "aircraft", "F450")
-        dst = os.path.join(self._tmpdir, "F450")
+        dst = os.path.join(tmp, "F450")
         shutil.copytree(src, dst)
         aero_path = os.path.join(dst, "Aero.xml")
         with open(aero_path) as fh:
@@ -147,13 +151,13 @@ class F450Backend:
         aero = aero.replace(marker, marker + "\n" + rotor, 1)
         with open(aero_path, "w") as fh:
             fh.write(aero)
-        self.fdm.load_model_with_paths(
-            "F450", self._tmpdir, os.path.join(root, "engine"), os.path.join(root, "systems")
-        )
-
-    def __del__(self) -> None:
-        if self._tmpdir:
-            shutil.rmtree(self._tmpdir, ignore_errors=True)
+        try:
+            self.fdm.load_model_with_paths(
+                "F450", tmp, os.path.join(root, "engine"), os.path.join(root, "systems")
+            )
+        finally:
+            # JSBSim has parsed everything (resets do not re-read files), so nothing is left behind.
+            shutil.rmtree(tmp, ignore_errors=True)
 
     def _set_ic(self, pos: np.ndarray, vel: np.ndarray) -> None:
         f = self.fdm
@@ -246,6 +250,32 @@ class F450Backend:
         rpy = np.array([f["attitude/phi-rad"], f["attitude/theta-rad"], psi])
         rates = np.array([f["velocities/p-rad_sec"], f["velocities/q-rad_sec"], f["velocities/r-rad_sec"]])
         return pos, vel, rpy, rates
+
+    def read_fast(self) -> list[float]:
+        """The same 12 values as :meth:`read` as a flat list of floats (the per-physics-step hot path).
+
+        Order: north, east, down, vn, ve, vd, roll, pitch, yaw, p, q, r (SI, NED).
+        """
+        f = self.fdm
+        psi = f["attitude/psi-rad"]
+        if psi > math.pi:
+            psi -= 2.0 * math.pi
+        return [(f["position/lat-geod-rad"] - self.lat0) * self.r_north,
+                (f["position/long-gc-rad"] - self.lon0) * self.r_east,
+                self.h0 - f["position/h-sl-ft"] * FT,
+                f["velocities/v-north-fps"] * FT, f["velocities/v-east-fps"] * FT, f["velocities/v-down-fps"] * FT,
+                f["attitude/phi-rad"], f["attitude/theta-rad"], psi,
+                f["velocities/p-rad_sec"], f["velocities/q-rad_sec"], f["velocities/r-rad_sec"]]
+
+    def hold(self, on: bool) -> None:
+        """Clamp the airframe in place (used while the vehicle sits on the ground)."""
+        self.fdm["forces/hold-down"] = 1 if on else 0
+
+    def total_thrust(self) -> float:
+        """Sum of the motor thrusts in N (fast path, no array)."""
+        f = self.fdm
+        return (f["propulsion/engine[0]/thrust-lbs"] + f["propulsion/engine[1]/thrust-lbs"]
+                + f["propulsion/engine[2]/thrust-lbs"] + f["propulsion/engine[3]/thrust-lbs"]) * LBF
 
     def motor_thrust(self) -> np.ndarray:
         """(4,) current thrust of each motor in N."""
