@@ -21,7 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from ksbo_sim.dynamics import integrate
-from ksbo_sim.episode import OK, REASONS, Bounds, EpisodeConfig
+from ksbo_sim.episode import CEILING, OK, OUT_X, REASONS, Bounds, EpisodeConfig
 from ksbo_sim.pid import PlanarPID
 from ksbo_sim.vehicle import ParamSpec, Setpoint, VehicleState
 
@@ -54,6 +54,8 @@ class PlanarVehicle:
     """One planar quadrotor flown by SCG's PID; implements :class:`~ksbo_sim.vehicle.VehicleModel`."""
 
     name = "planar"
+    #: Crash codes that are geofence breaches (reported CRITICAL; ground impact and tilt are EMERGENCY).
+    fence_codes = (OUT_X, CEILING)
 
     def __init__(self, config: EpisodeConfig | None = None) -> None:
         self.config = config or EpisodeConfig()
@@ -67,6 +69,7 @@ class PlanarVehicle:
         self._state = np.zeros((1, 6))
         self._thrust = np.full(2, self.config.constants.hover_thrust)
         self._t = 0.0
+        self.thrust_max = self.config.constants.thrust_max  # N per motor pair, scales SERVO_OUTPUT_RAW
 
     # --- parameters -------------------------------------------------------------------------------------
     def param_specs(self) -> list[ParamSpec]:

@@ -68,8 +68,14 @@ class ParamTable:
         self.volatile = set(volatile)
         self.echo_index = echo_index
         self.path = Path(path) if path else None
+        for name, value in self.values.items():  # the owner flies the stored (float32) value, not the spec's
+            on_change(name, value)
         self.send: Callable[[str, int], None] = lambda name, index: None  # set by the server
         self.statustext: Callable[[int, str], None] = lambda sev, text: None
+        #: Fault injection: returns a refusal reason to make a PARAM_SET fail (echo of the old value).
+        self.write_fault: Callable[[str], str | None] = lambda name: None
+        if self.path is not None and not self.path.parent.is_dir():
+            raise InputError(f"parameter file {self.path}: directory does not exist")
         if self.path is not None and self.path.exists():
             self._load(self.path)
 
@@ -94,7 +100,10 @@ class ParamTable:
         self.values[name] = new
         self._on_change(name, new)
         if changed and persist and self.path is not None and name not in self.volatile:
-            self._save(self.path)
+            try:
+                self._save(self.path)
+            except OSError as exc:  # the value is in effect; only persistence failed (as a worn-out EEPROM)
+                print(f"warning: cannot write {self.path}: {exc.strerror or exc}", file=sys.stderr)
         return None
 
     def force(self, name: str, value: float) -> None:
@@ -126,14 +135,19 @@ class ParamTable:
                 return  # unknown names: silence, as an autopilot does
             spec = self.spec(name)
             value = decode_int(msg.param_value, self.encoding) if spec.type == "INT32" else float(msg.param_value)
-            reason = self.set_local(name, value)
+            reason = self.write_fault(name) or self.set_local(name, value)
             if reason:
                 self.statustext(MAV_SEVERITY_WARNING, reason)
-            self.send(name, self._index[name] if self.echo_index else -1)
+            # ArduPilot echoes with param_index -1, which is 65535 in the uint16 field.
+            self.send(name, self._index[name] if self.echo_index else 65535)
 
     # --- persistence -----------------------------------------------------------------------------------
     def _load(self, path: Path) -> None:
-        for lineno, line in enumerate(path.read_text().splitlines(), 1):
+        try:
+            text = path.read_text()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(f"cannot read parameter file {path}: {exc}") from None
+        for lineno, line in enumerate(text.splitlines(), 1):
             line = line.split("#", 1)[0].strip()
             if not line:
                 continue

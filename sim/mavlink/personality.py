@@ -93,7 +93,7 @@ ARDUPILOT = Personality(name="ardupilot", autopilot=MAV_AUTOPILOT_ARDUPILOTMEGA,
                         flight_sw_version=(4 << 24) | (7 << 16) | (0 << 8) | 0, custom_version=b"ksbosim\0")
 
 _PX4_MODES = {393216: Mode.GUIDED, 50593792: Mode.HOLD, 196608: Mode.HOLD, 100925440: Mode.LAND,
-              33816576: Mode.TAKEOFF, 131072: Mode.MANUAL, 65536: Mode.MANUAL}
+              33816576: Mode.TAKEOFF, 65536: Mode.MANUAL, 131072: Mode.MANUAL}
 _PX4_NAMES = {393216: "OFFBOARD", 50593792: "AUTO.LOITER", 196608: "POSCTL", 100925440: "AUTO.LAND",
               33816576: "AUTO.TAKEOFF", 131072: "ALTCTL", 65536: "MANUAL"}
 

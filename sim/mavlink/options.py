@@ -1,0 +1,131 @@
+"""Command-line options of the simulator (shared by ``ksbo-mav sim`` and ``python -m ksbo_sim.mavlink``)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ksbo_mav.errors import InputError
+
+DEFAULT_UDP = ("127.0.0.1", 14560)
+INSTANCE_PORT_STEP = 10
+
+
+def _hostport(text: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    try:
+        value = int(port)
+        if not sep or not host or not 0 <= value <= 65535:
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT, got {text!r}") from None
+    return host, value
+
+
+def _assignment(text: str) -> tuple[str, float]:
+    name, sep, value = text.partition("=")
+    try:
+        if not sep or not name:
+            raise ValueError
+        return name.strip(), float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}") from None
+
+
+def _noise(text: str) -> tuple[float, float, float]:
+    try:
+        vals = [float(v) for v in text.split(",")]
+        if not 1 <= len(vals) <= 3 or any(not v >= 0 for v in vals):
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected POS[,VEL[,ACC]] non-negative stds, got {text!r}") from None
+    pos = vals[0]
+    vel = vals[1] if len(vals) > 1 else pos
+    return pos, vel, vals[2] if len(vals) > 2 else 10.0 * pos
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--udp", type=_hostport, metavar="HOST:PORT",
+                       help="listen on UDP and answer whoever talks (default 127.0.0.1:14560; port 0 = any)")
+    where.add_argument("--tcp", type=_hostport, metavar="HOST:PORT", help="TCP server (like SITL's 5760)")
+    p.add_argument("--out", type=_hostport, action="append", default=[], metavar="HOST:PORT",
+                   help="also send to this UDP address (for ground stations that only listen); repeatable")
+    clock = p.add_mutually_exclusive_group()
+    clock.add_argument("--speedup", type=float, default=1.0, metavar="X", help="real time x X (default 1)")
+    clock.add_argument("--lockstep", action="store_true",
+                       help="simulated time advances only with setpoints / MAV_CMD_USER_2 (for tests)")
+    p.add_argument("--instance", type=int, default=0, metavar="N", help=f"add {INSTANCE_PORT_STEP}*N to the port")
+    p.add_argument("--seed", type=int, default=None, help="seed of sensor noise and packet loss")
+    p.add_argument("--noise", type=_noise, default=None, metavar="POS[,VEL[,ACC]]",
+                   help="sensor noise stds in m, m/s, m/s^2 (default 0: exact telemetry)")
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="parameter file loaded at start and rewritten on every accepted PARAM_SET")
+    p.add_argument("--vehicle", default="planar", help="vehicle model (default planar)")
+    p.add_argument("--personality", default="ours", help="autopilot identity: ours, ardupilot, ardupilot-legacy, px4")
+    p.add_argument("--sysid", type=int, default=1, help="MAVLink system id (default 1)")
+    p.add_argument("--loss-in", type=float, default=None, metavar="F", help="drop this fraction of received messages")
+    p.add_argument("--loss-out", type=float, default=None, metavar="F", help="drop this fraction of sent messages")
+    p.add_argument("--delay-ms", type=float, default=None, metavar="MS", help="delay sent messages")
+    p.add_argument("--fault-after", type=float, default=None, metavar="S",
+                   help="faults start S simulated seconds into the guided setpoint stream")
+    p.add_argument("--set", type=_assignment, action="append", default=[], metavar="NAME=VALUE",
+                   help="set a parameter at start (not persisted); repeatable")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build the endpoint from parsed options, print the ready line, serve until SIGINT/SIGTERM."""
+    from ksbo_sim.mavlink.link import Link
+    from ksbo_sim.mavlink.personality import PERSONALITIES
+    from ksbo_sim.mavlink.server import Server
+    from ksbo_sim.mavlink.vehicles import make_vehicle
+
+    if args.personality not in PERSONALITIES:
+        raise InputError(f"unknown personality {args.personality!r}; choose from {', '.join(PERSONALITIES)}")
+    if not args.speedup > 0:
+        raise InputError("--speedup must be positive")
+    if args.instance < 0 or not 1 <= args.sysid <= 255:
+        raise InputError("--instance must be >= 0 and --sysid in 1..255")
+    kind = "tcp" if args.tcp else "udp"
+    host, port = args.tcp or args.udp or DEFAULT_UDP
+    if port:
+        port += INSTANCE_PORT_STEP * args.instance
+        if port > 65535:
+            raise InputError(f"--instance {args.instance} puts the port beyond 65535")
+    overrides = dict(args.set)
+    for opt, name in (("loss_in", "SIM_PKT_LOSS_IN"), ("loss_out", "SIM_PKT_LOSS_OUT"),
+                      ("delay_ms", "SIM_DELAY_MS"), ("fault_after", "SIM_FAULT_AFTER")):
+        if getattr(args, opt) is not None:
+            overrides[name] = getattr(args, opt)
+    if args.noise:
+        overrides.update(zip(("SIM_POS_NOISE", "SIM_VEL_NOISE", "SIM_ACC_NOISE"), args.noise))
+    model, product_id = make_vehicle(args.vehicle, args.personality, args.seed)
+    try:
+        link = Link(kind, host, port, outs=args.out, seed=args.seed)
+    except OSError as exc:
+        raise InputError(f"cannot listen on {kind} {host}:{port}: {exc.strerror or exc}") from None
+    try:
+        server = Server(model, PERSONALITIES[args.personality], link, lockstep=args.lockstep, speedup=args.speedup,
+                        sysid=args.sysid, seed=args.seed, params_path=args.params, product_id=product_id,
+                        overrides=overrides)
+    except BaseException:
+        link.close()
+        raise
+    h, p = link.address
+    clock = "lockstep" if args.lockstep else f"speedup={args.speedup:g}"
+    print(f"ksbo-sim ready {kind}:{h}:{p} vehicle={args.vehicle} personality={args.personality} "
+          f"sysid={args.sysid} {clock}", flush=True)
+    server.run()
+    print("ksbo-sim stopped", file=sys.stderr, flush=True)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m ksbo_sim.mavlink", description="MAVLink vehicle simulator")
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    try:
+        return run(args)
+    except InputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
