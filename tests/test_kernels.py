@@ -143,6 +143,7 @@ def test_kernel_matrix_is_positive_semidefinite():
     [
         (dict(dim=0), "dim"),
         (dict(dim=D, orders=()), "orders"),
+        (dict(dim=D, orders=(2.5,)), "orders"),
         (dict(dim=D, orders=(10,)), "order 10"),
         (dict(dim=D, orders=(3,), active_dims=[0, 1]), "order 3"),
         (dict(dim=D, lengthscales=-1.0), "lengthscales"),

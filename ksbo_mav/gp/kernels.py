@@ -39,7 +39,7 @@ from ksbo_mav.errors import InputError
 from ksbo_mav.gp.symmetric import METHODS, Method, elementary_symmetric, esp_from_power_sums, esp_without_one
 
 #: Rows of X1 per block in :meth:`AdditiveKernel.__call__` (keeps the work arrays in cache).
-_BLOCK_ELEMENTS = 1 << 15
+_BLOCK_ELEMENTS = 1 << 14
 
 
 @dataclass(frozen=True)
@@ -104,7 +104,10 @@ class AdditiveKernel:
         D = int(self.dim)
         if self.method not in METHODS:
             raise InputError(f"unknown method {self.method!r}; expected one of {', '.join(METHODS)}")
-        orders = [int(r) for r in np.atleast_1d(np.asarray(self.orders))]
+        arr = np.atleast_1d(np.asarray(self.orders))
+        if arr.ndim != 1 or (arr.size and not np.issubdtype(arr.dtype, np.integer)):
+            raise InputError(f"orders must be a sequence of integers, got {self.orders!r}")
+        orders = [int(r) for r in arr]
         if not orders or len(set(orders)) != len(orders):
             raise InputError(f"orders must be a non-empty sequence of distinct integers, got {self.orders!r}")
 
@@ -276,13 +279,13 @@ class AdditiveKernel:
                 np.exp(z, out=z)
                 if self.method == "newton-girard":
                     acc[1] += z
-                    zk[...] = z
                     for k in range(2, R + 1):
-                        zk *= z
+                        np.multiply(zk if k > 2 else z, z, out=zk)
                         acc[k] += zk
                 else:
                     for r in range(min(n + 1, R), 0, -1):
-                        acc[r] += z * acc[r - 1]
+                        np.multiply(z, acc[r - 1], out=zk)
+                        acc[r] += zk
             e = esp_from_power_sums(acc) if self.method == "newton-girard" else acc
             for t in idx:
                 out += self._weight(t) * e[self.terms_[t].order]

@@ -46,7 +46,9 @@ def esp_from_power_sums(p: NDArray[np.float64]) -> NDArray[np.float64]:
     return e
 
 
-def elementary_symmetric(z: NDArray[np.float64], max_order: int, method: Method = "newton-girard") -> NDArray[np.float64]:
+def elementary_symmetric(
+    z: NDArray[np.float64], max_order: int, method: Method = "newton-girard"
+) -> NDArray[np.float64]:
     """Elementary symmetric polynomials ``e_0..e_R`` of ``z`` along its first axis.
 
     Args:
