@@ -56,3 +56,21 @@ def to_json(obj: Any) -> str:
         return o
 
     return json.dumps(clean(obj), indent=2)
+
+
+def add_connection_args(p: argparse.ArgumentParser) -> None:
+    """Vehicle connection options shared by tune / restore / accept."""
+    g = p.add_argument_group("connection (exactly one)")
+    g.add_argument("--udp", metavar="HOST:PORT", help="listen for the vehicle on UDP, as a ground station does")
+    g.add_argument("--udp-out", metavar="HOST:PORT", help="send to a vehicle that listens on UDP (we talk first)")
+    g.add_argument("--tcp", metavar="HOST:PORT", help="connect to a TCP server (SITL 5760, a telemetry bridge)")
+    g.add_argument("--serial", metavar="DEV[:BAUD]", help="serial port, e.g. /dev/ttyUSB0:57600")
+    g.add_argument("--sysid", type=int, default=None, help="our MAVLink system id (default 245)")
+    g.add_argument("--compid", type=int, default=None, help="our MAVLink component id (default 191)")
+    g.add_argument("--timeout", type=float, default=15.0, metavar="S", help="wait this long for a heartbeat")
+
+
+def endpoint_from_args(args: argparse.Namespace):
+    from ksbo_mav.mav.link import parse_endpoint
+
+    return parse_endpoint(udp=args.udp, udpout=args.udp_out, tcp=args.tcp, serial=args.serial)

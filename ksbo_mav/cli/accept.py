@@ -1,0 +1,28 @@
+"""`ksbo-mav accept DIR`: write a finished campaign's best gains to the vehicle (verified) and export them."""
+
+from __future__ import annotations
+
+import argparse
+
+from ksbo_mav.cli.common import add_connection_args, endpoint_from_args
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser("accept", help="write a finished campaign's best gains (verified), export .param",
+                              description="Writes DIR/result.json's best gains, checked against the snapshot's "
+                                          "baseline trust region, verifies them, and writes DIR/accepted.param, "
+                                          "DIR/accepted.params and DIR/diff.txt.")
+    p.add_argument("dir", metavar="DIR")
+    add_connection_args(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from ksbo_mav.tune import accept_campaign
+
+    best = accept_campaign(args.dir, endpoint_from_args(args), log=lambda s: print(s), timeout=args.timeout)
+    print(Path(args.dir, "diff.txt").read_text(), end="")
+    print(f"accepted {len(best)} gain(s); exported {Path(args.dir, 'accepted.param')} and .params")
+    return 0

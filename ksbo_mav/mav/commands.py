@@ -1,0 +1,109 @@
+"""Commands and modes (fact sheet 1.2-1.3): COMMAND_LONG with acknowledgement and retries, arming, takeoff,
+landing, mode changes confirmed by the heartbeat, message intervals, STATUSTEXT collection for error messages."""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from typing import Any
+
+from ksbo_mav.errors import VehicleError
+from ksbo_mav.mav.link import Link
+from ksbo_mav.mav.stacks import Stack
+from ksbo_mav.mav.wire import mavlink
+
+RESULTS = {0: "accepted", 1: "temporarily rejected", 2: "denied", 3: "unsupported", 4: "failed", 5: "in progress",
+           6: "cancelled"}
+
+CMD_ARM = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
+CMD_TAKEOFF = mavlink.MAV_CMD_NAV_TAKEOFF
+CMD_SET_MODE = mavlink.MAV_CMD_DO_SET_MODE
+CMD_INTERVAL = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+CMD_REQUEST_MESSAGE = mavlink.MAV_CMD_REQUEST_MESSAGE
+CMD_REQUEST_CAPS = mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES
+
+
+class Commander:
+    """Command service of one vehicle; keeps the last STATUSTEXTs so refusals can be explained."""
+
+    def __init__(self, link: Link) -> None:
+        self.link = link
+        self.stack: Stack | None = None
+        self.texts: deque[tuple[int, str]] = deque(maxlen=20)
+        link.handlers.append(self._on_msg)
+
+    def _on_msg(self, msg: Any) -> None:
+        if msg.get_type() == "STATUSTEXT" and self.link.is_vehicle(msg):
+            self.texts.append((int(msg.severity), str(msg.text)))
+
+    def recent_text(self, since: int = 0) -> str:
+        items = list(self.texts)[since:]
+        return "; ".join(t for _, t in items[-3:])
+
+    def command(self, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> int:
+        """Send COMMAND_LONG until acknowledged; returns MAV_RESULT. :class:`VehicleError` if never acknowledged."""
+        p = list(params) + [0.0] * (7 - len(params))
+        link = self.link
+        for confirmation in range(retries):
+            link.send(link.mav.command_long_encode(link.target_system, link.target_component, cmd, confirmation,
+                                                   *p))
+            ack = link.wait(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, timeout)
+            if ack is not None:
+                return int(ack.result)
+        raise VehicleError(f"no COMMAND_ACK for command {cmd} after {retries} attempts")
+
+    def require(self, what: str, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> None:
+        """Like :meth:`command` but raises :class:`VehicleError` with the vehicle's reason unless accepted."""
+        mark = len(self.texts)
+        result = self.command(cmd, *params, timeout=timeout, retries=retries)
+        if result != 0:
+            self.link.pump(0.05)  # the STATUSTEXT explaining a refusal usually follows the ACK
+            reason = self.recent_text(mark)
+            raise VehicleError(f"{what} {RESULTS.get(result, result)} by the vehicle"
+                               + (f": {reason}" if reason else ""))
+
+    # --- modes and arming ----------------------------------------------------------------------------------
+    def set_mode(self, mode: str, timeout: float = 5.0) -> None:
+        """Switch to the stack's ``mode`` ("guided", "hold", "land") and wait until the heartbeat shows it."""
+        assert self.stack is not None
+        custom = self.stack.modes[mode]
+        deadline = time.monotonic() + timeout
+        while True:
+            self.require(f"mode {self.stack.mode_name(custom)}", CMD_SET_MODE, *self.stack.mode_params(custom))
+            hb = self.link.wait(lambda m: m.get_type() == "HEARTBEAT" and m.custom_mode == custom, 1.5)
+            if hb is not None:
+                return
+            if time.monotonic() > deadline:
+                raise VehicleError(f"vehicle did not enter mode {self.stack.mode_name(custom)}")
+
+    def arm(self, timeout: float = 10.0) -> None:
+        deadline = time.monotonic() + timeout
+        while True:
+            self.require("arming", CMD_ARM, 1.0)
+            hb = self.link.wait(lambda m: m.get_type() == "HEARTBEAT" and m.base_mode & 128, 1.5)
+            if hb is not None:
+                return
+            if time.monotonic() > deadline:
+                raise VehicleError("vehicle did not arm")
+
+    def takeoff(self, alt_m: float) -> None:
+        self.require("takeoff", CMD_TAKEOFF, 0, 0, 0, float("nan"), float("nan"), float("nan"), alt_m)
+
+    def set_interval(self, msg_id: int, interval_us: float) -> bool:
+        """SET_MESSAGE_INTERVAL; False (not an error) when the vehicle does not stream that message."""
+        return self.command(CMD_INTERVAL, msg_id, interval_us) == 0
+
+    def request_message(self, msg_id: int, name: str, timeout: float = 1.0) -> Any:
+        """REQUEST_MESSAGE (512), falling back to REQUEST_AUTOPILOT_CAPABILITIES for AUTOPILOT_VERSION."""
+        link = self.link
+        for attempt in range(3):
+            if attempt < 2 or msg_id != mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+                link.send(link.mav.command_long_encode(link.target_system, link.target_component,
+                                                       CMD_REQUEST_MESSAGE, attempt, msg_id, 0, 0, 0, 0, 0, 0))
+            else:
+                link.send(link.mav.command_long_encode(link.target_system, link.target_component,
+                                                       CMD_REQUEST_CAPS, 0, 1, 0, 0, 0, 0, 0, 0))
+            msg = link.wait(lambda m: m.get_type() == name, timeout)
+            if msg is not None:
+                return msg
+        return None

@@ -1,0 +1,240 @@
+"""The connection to one vehicle: endpoint parsing, our own ids and heartbeat, a single-threaded message pump.
+
+Everything that waits for the vehicle goes through :meth:`Link.pump` / :meth:`Link.wait`, so there are no
+threads: a Ctrl-C lands in the main thread between two messages, and the tuner's safety code runs in order.
+While pumping, the link sends our GCS heartbeat at 1 Hz (so the vehicle and other ground stations see us),
+tracks the vehicle's heartbeat for link-loss detection, and hands every packet in both directions to the
+optional :class:`~ksbo_mav.mav.tlog.TlogWriter` (pymavlink's own logging is empty on UDP, fact sheet 5.2).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from ksbo_mav.errors import InputError, VehicleError
+from ksbo_mav.mav.tlog import LINK_RECEIVED, LINK_SENT, TlogWriter
+from ksbo_mav.mav.wire import mavlink, mavutil
+
+#: Default ids: a companion-computer component on a GCS-range system id, so QGC/MAVProxy (255/190, 255/230)
+#: can stay connected to the same vehicle without id clashes.
+DEFAULT_SYSID = 245
+DEFAULT_COMPID = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
+
+MAV_TYPE_GCS = 6
+MAV_AUTOPILOT_INVALID = 8
+
+Handler = Callable[[Any], None]
+Tap = Callable[[Any, bool], None]
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """Where the vehicle is. ``kind``: ``udp`` (we listen, as a GCS), ``udpout`` (we talk first), ``tcp``,
+    ``serial``."""
+
+    kind: str
+    host: str
+    port: int = 0
+    baud: int = 57600
+
+    @property
+    def device(self) -> str:
+        if self.kind == "udp":
+            return f"udpin:{self.host}:{self.port}"
+        if self.kind == "udpout":
+            return f"udpout:{self.host}:{self.port}"
+        if self.kind == "tcp":
+            return f"tcp:{self.host}:{self.port}"
+        return self.host
+
+    def __str__(self) -> str:
+        if self.kind == "serial":
+            return f"serial {self.host} @ {self.baud}"
+        return f"{self.kind} {self.host}:{self.port}"
+
+
+def _host_port(text: str, what: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not host:
+        raise InputError(f"{what} needs HOST:PORT, got {text!r}")
+    try:
+        p = int(port)
+    except ValueError:
+        raise InputError(f"{what}: port {port!r} is not a number") from None
+    if not 0 < p < 65536:
+        raise InputError(f"{what}: port {p} outside 1..65535")
+    return host, p
+
+
+def parse_endpoint(udp: str | None = None, udpout: str | None = None, tcp: str | None = None,
+                   serial: str | None = None) -> Endpoint:
+    """Exactly one of the four connection options -> :class:`Endpoint` (clear error otherwise)."""
+    given = [(k, v) for k, v in (("udp", udp), ("udpout", udpout), ("tcp", tcp), ("serial", serial)) if v]
+    if len(given) != 1:
+        raise InputError("give exactly one of --udp HOST:PORT, --udp-out HOST:PORT, --tcp HOST:PORT, "
+                         "--serial DEV[:BAUD]")
+    kind, text = given[0]
+    if kind == "serial":
+        dev, sep, baud = text.partition(":")
+        try:
+            return Endpoint("serial", dev, baud=int(baud) if sep else 57600)
+        except ValueError:
+            raise InputError(f"--serial: baud rate {baud!r} is not a number") from None
+    host, port = _host_port(text, f"--{kind.replace('udpout', 'udp-out')}")
+    return Endpoint(kind, host, port)
+
+
+class Link:
+    """A MAVLink 2 connection to one vehicle (the first non-GCS heartbeat we hear, or ``target_system``)."""
+
+    def __init__(self, endpoint: Endpoint, sysid: int = DEFAULT_SYSID, compid: int = DEFAULT_COMPID,
+                 target_system: int | None = None) -> None:
+        if not (1 <= sysid <= 255 and 1 <= compid <= 255):
+            raise InputError("--sysid and --compid must be in 1..255")
+        self.endpoint = endpoint
+        try:
+            self.conn = mavutil.mavlink_connection(endpoint.device, baud=endpoint.baud, source_system=sysid,
+                                                   source_component=compid, autoreconnect=False)
+        except (OSError, ValueError) as exc:
+            raise VehicleError(f"cannot open {endpoint}: {exc}") from None
+        # Our messages are MAVLink 2 even before the vehicle has spoken (ids > 255, e.g. ACTUATOR_OUTPUT_STATUS).
+        self.conn.WIRE_PROTOCOL_VERSION = "2.0"
+        self.conn.mav.WIRE_PROTOCOL_VERSION = "2.0"
+        self.mav = self.conn.mav
+        self.target_system = target_system or 0
+        self.target_component = 1
+        self.tlog: TlogWriter | None = None
+        self.handlers: list[Handler] = []
+        #: Called with (message as decoded from the wire, sent?) for every packet in both directions.
+        self.taps: list[Tap] = []
+        self._decoder = mavlink.MAVLink(None)
+        self.last_heartbeat: Any = None
+        self.last_heartbeat_wall = 0.0
+        self._next_own_heartbeat = 0.0
+        self.closed = False
+        self.conn.message_hooks.append(self._on_message)
+        self.mav.set_send_callback(self._on_send)
+
+    # --- logging -----------------------------------------------------------------------------------------
+    def _on_send(self, msg: Any) -> None:
+        buf = msg.get_msgbuf()
+        if self.tlog is not None:
+            self.tlog.write(buf, LINK_SENT)
+        if self.taps:
+            # Taps see what the vehicle receives (float32 fields), exactly as a tlog replay will.
+            wire = self._decoder.decode(bytearray(buf))
+            for tap in list(self.taps):
+                tap(wire, True)
+
+    def _on_message(self, _conn: Any, msg: Any) -> None:
+        if msg.get_type() == "BAD_DATA":
+            return  # garbage is not a packet; logging it would make the tlog unreadable
+        if self.tlog is not None:
+            self.tlog.write(msg.get_msgbuf(), LINK_RECEIVED)
+        for tap in list(self.taps):
+            tap(msg, False)
+
+    # --- sending -------------------------------------------------------------------------------------------
+    def send(self, msg: Any) -> None:
+        if self.closed:
+            raise VehicleError("link is closed")
+        try:
+            self.mav.send(msg)
+        except OSError as exc:
+            raise VehicleError(f"send failed on {self.endpoint}: {exc}") from None
+
+    def _own_heartbeat(self) -> None:
+        now = time.monotonic()
+        if now >= self._next_own_heartbeat:
+            self._next_own_heartbeat = now + 1.0
+            self.send(self.mav.heartbeat_encode(MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, 0, 0,
+                                                mavlink.MAV_STATE_ACTIVE))
+
+    # --- receiving -----------------------------------------------------------------------------------------
+    def is_vehicle(self, msg: Any) -> bool:
+        return self.target_system != 0 and msg.get_srcSystem() == self.target_system \
+            and msg.get_srcComponent() == self.target_component
+
+    def pump(self, timeout: float = 0.0) -> int:
+        """Receive and dispatch everything available, waiting up to ``timeout`` s for the first message.
+        Returns the number of messages handled."""
+        self._own_heartbeat()
+        count = 0
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                msg = self.conn.recv_msg()
+            except OSError as exc:
+                raise VehicleError(f"receive failed on {self.endpoint}: {exc}") from None
+            if msg is None:
+                remaining = deadline - time.monotonic()
+                if count or remaining <= 0:
+                    return count
+                self.conn.select(min(remaining, 0.05))
+                self._own_heartbeat()
+                continue
+            if msg.get_type() == "BAD_DATA":
+                continue
+            count += 1
+            self._track(msg)
+            for h in list(self.handlers):
+                h(msg)
+
+    def _track(self, msg: Any) -> None:
+        if msg.get_type() != "HEARTBEAT":
+            return
+        if msg.type == MAV_TYPE_GCS or msg.autopilot == MAV_AUTOPILOT_INVALID:
+            return  # another ground station, not the vehicle (pymavlink PR #769)
+        if self.target_system == 0:
+            self.target_system, self.target_component = msg.get_srcSystem(), msg.get_srcComponent()
+        if self.is_vehicle(msg):
+            self.last_heartbeat = msg
+            self.last_heartbeat_wall = time.monotonic()
+
+    def wait(self, predicate: Callable[[Any], Any], timeout: float) -> Any:
+        """Pump until ``predicate(msg)`` is truthy for a message from the vehicle; returns it, or None on timeout."""
+        found: list[Any] = []
+
+        def grab(msg: Any) -> None:
+            if not found and self.is_vehicle(msg) and predicate(msg):
+                found.append(msg)
+
+        self.handlers.append(grab)
+        try:
+            deadline = time.monotonic() + timeout
+            while not found:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return None
+                self.pump(min(remaining, 0.1))
+            return found[0]
+        finally:
+            self.handlers.remove(grab)
+
+    def wait_heartbeat(self, timeout: float) -> Any:
+        """The vehicle's first (or next) heartbeat; :class:`VehicleError` if none arrives in time."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            before = self.last_heartbeat_wall
+            self.pump(0.1)
+            if self.last_heartbeat_wall > before:
+                return self.last_heartbeat
+        raise VehicleError(f"no vehicle heartbeat on {self.endpoint} within {timeout:g} s "
+                           "(is the vehicle running and sending to this address?)")
+
+    def heartbeat_age(self) -> float:
+        return time.monotonic() - self.last_heartbeat_wall if self.last_heartbeat_wall else float("inf")
+
+    def close(self) -> None:
+        if not self.closed:
+            self.closed = True
+            if self.tlog is not None:
+                self.tlog.close()
+                self.tlog = None
+            try:
+                self.conn.close()
+            except OSError:
+                pass

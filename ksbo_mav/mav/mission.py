@@ -1,0 +1,142 @@
+"""The figure-8 missions in the vehicle's local NED frame, how their setpoints look on the wire, and their scores.
+
+* ``figure8-xz`` (planar task, ``sim-planar``): Safe Control Gym's figure-8, planar x <-> NED north, planar z (up)
+  <-> -NED down, east 0. Task states [x, vx, z, vz, theta, theta_dot] (NED pitch = -theta); scored with the
+  paper's P(a) (:mod:`ksbo_mav.scoring`), lap 2.
+* ``figure8-ne`` (3-D copters, fact sheet 8): north = A sin(wt), east = B sin(2wt) at a constant height. Task
+  states [north, v_north, east, v_east, up, v_up]; scored by the lap-2 RMS tracking error e (m):
+  ``P = 1 - e / rms_max_m`` (profile ``[score]``, default 1 m), so larger is better and P < 0 means the loop tracks
+  worse than that; an early end scores ``-(1 - (L/n)^2)`` like P(a).
+
+Setpoints carry position + velocity + acceleration (type_mask 0x0C00, frame LOCAL_NED): streamed feed-forward
+isolates the position loop from trajectory shaping (fact sheet 4.2). Holds use position-only targets (0x0DF8),
+which never time out on the vehicle (fact sheet 4.1 pitfall).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ksbo_mav.errors import InputError
+from ksbo_mav.profiles import Profile
+from ksbo_mav.scoring import ScoreConfig
+
+MASK_POS_VEL_ACC = 0x0C00
+MASK_POS = 0x0DF8
+FRAME_LOCAL_NED = 1
+KINDS = {"figure8-xz": "f8", "figure8-ne": "f8h"}  # mission type -> tag of the tlog trial markers
+
+
+@dataclass(frozen=True)
+class Mission:
+    """A figure-8 in NED. Times are seconds from the trial start ``t0``."""
+
+    kind: str
+    scale: float  # m: x amplitude (xz) / north amplitude (ne)
+    scale2: float  # m: z amplitude factor (xz, = scale) / east amplitude (ne)
+    period: float
+    center_up: float
+    laps: int
+    rate_hz: int
+    score_section: tuple[tuple[str, Any], ...] = ()
+
+    @classmethod
+    def from_profile(cls, profile: Profile) -> "Mission":
+        m = profile.section("mission")
+        kind = str(m.get("type", "figure8-xz"))
+        if kind not in KINDS:
+            raise InputError(f"profile {profile.name}: mission type {kind!r} unknown (known: {', '.join(KINDS)})")
+        scale = float(m.get("scale_m", 0.75))
+        mission = cls(kind, scale, float(m.get("scale_east_m", scale)), float(m.get("period_s", 6.0)),
+                      float(m.get("center_up_m", 1.0)), int(m.get("laps", 2)), int(m.get("rate_hz", 50)),
+                      tuple(sorted((k, tuple(v) if isinstance(v, list) else v)
+                                   for k, v in profile.section("score").items())))
+        if mission.dt_ms * mission.rate_hz != 1000:
+            raise InputError(f"profile {profile.name}: mission rate_hz {mission.rate_hz} must divide 1000")
+        return mission
+
+    @property
+    def tag(self) -> str:
+        return KINDS[self.kind]
+
+    @property
+    def dt_ms(self) -> int:
+        return 1000 // self.rate_hz
+
+    @property
+    def dt(self) -> float:
+        return self.dt_ms / 1000.0
+
+    @property
+    def steps(self) -> int:
+        """Control steps of a complete trial (600 for 2 laps of 6 s at 50 Hz)."""
+        return int(round(self.laps * self.period * self.rate_hz))
+
+    @property
+    def steps_per_lap(self) -> int:
+        return int(round(self.period * self.rate_hz))
+
+    @property
+    def window(self) -> tuple[int, int]:
+        return self.steps - self.steps_per_lap, self.steps
+
+    def score_config(self) -> ScoreConfig:
+        """P(a) constants of the planar task: the profile's ``[score]`` overrides, lap 2 scored."""
+        extra = {k: v for k, v in self.score_section if k in ("Q", "R", "u_ref", "j_hi", "lam", "floor")}
+        return ScoreConfig(window=self.window, L_expected=self.steps, **extra)
+
+    # --- reference ---------------------------------------------------------------------------------------
+    def start_ned(self) -> np.ndarray:
+        """(3,) NED position of the figure-8 start (where the vehicle hovers before a trial)."""
+        return self.setpoint_at(0.0)[0]
+
+    def setpoint(self, step: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(pos, vel, acc) NED of the reference at ``step`` control periods after the start."""
+        return self.setpoint_at(step * self.dt)
+
+    def setpoint_at(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(pos, vel, acc) NED of the reference ``t`` seconds after the start."""
+        w = 2.0 * math.pi / self.period
+        s, c, s2, c2 = math.sin(w * t), math.cos(w * t), math.sin(2 * w * t), math.cos(2 * w * t)
+        A = self.scale
+        if self.kind == "figure8-xz":  # x = A sin wt, z = z0 + A sin wt cos wt = z0 + A/2 sin 2wt (ksbo_sim.Figure8)
+            return (np.array([A * s, 0.0, -(self.center_up + A * s * c)]),
+                    np.array([A * w * c, 0.0, -(A * w * c2)]),
+                    np.array([-A * w * w * s, 0.0, 2.0 * A * w * w * s2]))
+        B = self.scale2
+        return (np.array([A * s, B * s2, -self.center_up]), np.array([A * w * c, 2 * B * w * c2, 0.0]),
+                np.array([-A * w * w * s, -4 * B * w * w * s2, 0.0]))
+
+    # --- score -------------------------------------------------------------------------------------------
+    def score(self, traj: Any) -> dict[str, Any]:
+        """Score dict of a :class:`ksbo_mav.objective.Trajectory` (``P`` first; JSON friendly)."""
+        if self.kind == "figure8-xz":
+            return traj.score(self.score_config()).item()
+        n, (lo, hi) = self.steps, self.window
+        sel = (traj.steps >= lo) & (traj.steps < hi)
+        err = traj.states[sel][:, (0, 2, 4)] - traj.refs[sel][:, (0, 2, 4)]
+        complete = bool(traj.L >= hi and sel.sum() == hi - lo and np.all(np.isfinite(err)))
+        rms = float(np.sqrt(np.mean(np.sum(err * err, axis=1)))) if complete else None
+        rms_max = float(dict(self.score_section).get("rms_max_m", 1.0))
+        P = 1.0 - rms / rms_max if rms is not None else -(1.0 - (traj.L / n) ** 2)
+        return {"P": P, "rms_lap2_m": rms, "rms_max_m": rms_max, "L": int(traj.L), "L_expected": n,
+                "complete": complete, "safe": bool(P >= 0)}
+
+
+def task_ref(kind: str, ned: np.ndarray) -> np.ndarray:
+    """6 task reference states from a setpoint's NED [x, y, z, vx, vy, vz]."""
+    if kind == "figure8-xz":
+        return np.array([ned[0], ned[3], -ned[2], -ned[5], 0.0, 0.0])
+    return np.array([ned[0], ned[3], ned[1], ned[4], -ned[2], -ned[5]])
+
+
+def task_state(kind: str, ned: np.ndarray, att: np.ndarray) -> np.ndarray:
+    """6 task states from LOCAL_POSITION_NED [x, y, z, vx, vy, vz] and ATTITUDE [roll, pitch, rollspeed,
+    pitchspeed] (NaN where an attitude sample is missing)."""
+    if kind == "figure8-xz":
+        return np.array([ned[0], ned[3], -ned[2], -ned[5], -att[1], -att[3]])
+    return np.array([ned[0], ned[3], ned[1], ned[4], -ned[2], -ned[5]])

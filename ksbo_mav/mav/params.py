@@ -1,0 +1,185 @@
+"""Parameter protocol (fact sheet section 2): complete download, read, set-and-verify, INT32 encodings.
+
+* Download: PARAM_REQUEST_LIST, collect PARAM_VALUE by index, re-request missing indices by PARAM_REQUEST_READ
+  after a quiet period (as MAVProxy does); the result is only accepted when every index 0..count-1 arrived.
+* Set: the PARAM_VALUE echo is the only acknowledgement. A set is verified when an echo with the same name
+  carries the requested value (within float32 rounding); a timeout is retried, a wrong value is retried once more
+  and then reported as refused. Unknown names get no answer at all from an autopilot, so they are refused
+  *before* sending, from the downloaded list.
+* INT32 values travel in the float field either C-cast (ArduPilot) or bytewise (PX4, spec); the encoding is a
+  property of the stack (:mod:`ksbo_mav.mav.stacks`), never guessed from the value.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ksbo_mav.errors import InputError, VehicleError
+from ksbo_mav.mav.link import Link
+
+REAL32, REAL64 = 9, 10
+#: MAV_PARAM_TYPE -> struct format of the integer inside the 4-byte param union (little-endian).
+_INT_FORMATS = {1: "<B", 2: "<b", 3: "<H", 4: "<h", 5: "<I", 6: "<i"}
+
+
+class VerifyError(VehicleError):
+    """A parameter write was not confirmed by the vehicle (no echo, or a different value echoed)."""
+
+
+def encode(value: float, ptype: int, encoding: str) -> float:
+    """Value -> the float carried in PARAM_SET/PARAM_VALUE.param_value."""
+    if ptype not in _INT_FORMATS:
+        return float(value)
+    ival = int(round(value))
+    if encoding == "bytewise":
+        raw = struct.pack(_INT_FORMATS[ptype], ival).ljust(4, b"\0")
+        return struct.unpack("<f", raw)[0]
+    return float(ival)
+
+
+def decode(wire: float, ptype: int, encoding: str) -> float:
+    """param_value on the wire -> the parameter's value."""
+    if ptype not in _INT_FORMATS:
+        return float(wire)
+    if encoding == "bytewise":
+        fmt = _INT_FORMATS[ptype]
+        raw = struct.pack("<f", wire)[: struct.calcsize(fmt)]
+        return float(struct.unpack(fmt, raw)[0])
+    return float(wire)
+
+
+def same_value(a: float, b: float, ptype: int) -> bool:
+    """Equal as the vehicle stores them: integers exactly, REAL32 within float32 rounding."""
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return False
+    if ptype in _INT_FORMATS:
+        return int(round(a)) == int(round(b))
+    fa, fb = float(np.float32(a)), float(np.float32(b))
+    return abs(fa - fb) <= 1e-6 * max(1.0, abs(fa))
+
+
+@dataclass
+class Param:
+    name: str
+    value: float  # decoded
+    ptype: int
+    index: int
+
+
+class ParamClient:
+    """Parameter service of one vehicle over ``link``; ``encoding`` is ``"c_cast"`` or ``"bytewise"``."""
+
+    def __init__(self, link: Link, encoding: str) -> None:
+        self.link = link
+        self.encoding = encoding
+        self.table: dict[str, Param] = {}
+        self.count = 0
+
+    def _id(self, name: str) -> bytes:
+        return name.encode("ascii")
+
+    # --- download -----------------------------------------------------------------------------------------
+    def fetch_all(self, timeout: float = 30.0, quiet: float = 0.5, max_passes: int = 20) -> dict[str, Param]:
+        """Download every parameter; :class:`VehicleError` unless all ``param_count`` indices arrived."""
+        got: dict[int, Param] = {}
+        count = [0]
+        last = [time.monotonic()]
+
+        def on_msg(msg: Any) -> None:
+            if msg.get_type() != "PARAM_VALUE" or not self.link.is_vehicle(msg):
+                return
+            count[0] = max(count[0], int(msg.param_count))
+            if 0 <= msg.param_index < 65535:
+                got[int(msg.param_index)] = Param(msg.param_id, decode(msg.param_value, msg.param_type,
+                                                                       self.encoding), int(msg.param_type),
+                                                  int(msg.param_index))
+            last[0] = time.monotonic()
+
+        link = self.link
+        link.handlers.append(on_msg)
+        try:
+            link.send(link.mav.param_request_list_encode(link.target_system, link.target_component))
+            deadline = time.monotonic() + timeout
+            passes = 0
+            while time.monotonic() < deadline:
+                link.pump(0.05)
+                if count[0] and len(got) >= count[0]:
+                    break
+                if time.monotonic() - last[0] < quiet:
+                    continue
+                if not count[0]:  # nothing yet: the request itself may have been lost
+                    link.send(link.mav.param_request_list_encode(link.target_system, link.target_component))
+                else:
+                    missing = [i for i in range(count[0]) if i not in got][:10]
+                    for i in missing:
+                        link.send(link.mav.param_request_read_encode(link.target_system, link.target_component,
+                                                                     b"", i))
+                passes += 1
+                last[0] = time.monotonic()
+                if passes > max_passes:
+                    break
+        finally:
+            link.handlers.remove(on_msg)
+        if not count[0] or len(got) < count[0]:
+            raise VehicleError(f"parameter download incomplete: {len(got)} of {count[0] or '?'} received")
+        self.count = count[0]
+        self.table = {p.name: p for p in (got[i] for i in range(count[0]))}
+        return self.table
+
+    # --- read ------------------------------------------------------------------------------------------------
+    def _wait_value(self, name: str, timeout: float) -> Any:
+        return self.link.wait(lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, timeout)
+
+    def read(self, name: str, timeout: float = 1.0, retries: int = 3) -> float:
+        """Fresh read by name (PARAM_REQUEST_READ, index -1)."""
+        self._known(name)
+        link = self.link
+        for _ in range(retries):
+            link.send(link.mav.param_request_read_encode(link.target_system, link.target_component,
+                                                         self._id(name), -1))
+            msg = self._wait_value(name, timeout)
+            if msg is not None:
+                value = decode(msg.param_value, msg.param_type, self.encoding)
+                self.table[name].value = value
+                return value
+        raise VehicleError(f"no PARAM_VALUE for {name} after {retries} read requests")
+
+    def _known(self, name: str) -> Param:
+        if name not in self.table:
+            raise InputError(f"parameter {name} is not on this vehicle (not in its parameter list)")
+        return self.table[name]
+
+    # --- set --------------------------------------------------------------------------------------------------
+    def set_verified(self, name: str, value: float, timeout: float = 1.0, retries: int = 3) -> float:
+        """Write ``value`` and wait for the matching echo; returns the value the vehicle confirmed.
+
+        Raises:
+            InputError: unknown name, non-finite value.
+            VerifyError: no echo after ``retries`` attempts, or the vehicle kept echoing another value.
+        """
+        p = self._known(name)
+        if not math.isfinite(value):
+            raise InputError(f"refusing to write a non-finite value to {name}")
+        link = self.link
+        wire = encode(value, p.ptype, self.encoding)
+        echoed: float | None = None
+        for _ in range(retries):
+            link.send(link.mav.param_set_encode(link.target_system, link.target_component, self._id(name), wire,
+                                                p.ptype))
+            msg = self._wait_value(name, timeout)
+            if msg is None:
+                continue
+            echoed = decode(msg.param_value, msg.param_type, self.encoding)
+            if same_value(echoed, value, p.ptype):
+                p.value = echoed
+                return echoed
+        if echoed is None:
+            raise VerifyError(f"no PARAM_VALUE received for {name} after {retries} attempts")
+        p.value = echoed
+        raise VerifyError(f"vehicle refused {name} = {value:.9g} (it reports {echoed:.9g})")

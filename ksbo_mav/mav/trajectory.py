@@ -1,0 +1,177 @@
+"""One trial's telemetry and logged setpoints -> :class:`ksbo_mav.objective.Trajectory`.
+
+:class:`TrialRecorder` is fed every packet of a link in both directions, *as decoded from the wire*: live by the
+link's taps, offline from a tlog. Both paths therefore see the same numbers (float32 setpoints included) and the
+score recomputed from a tlog equals the live score exactly.
+
+A trial is delimited by two STATUSTEXTs the client sends (a ground station may send STATUSTEXT; vehicles
+forward or ignore it, and other ground stations on the link see what the tuner is doing):
+
+* ``ksbo f8 start t0=<ms> n=<steps> dt=<ms> w=<first scored step>`` (``f8h`` for the horizontal figure-8) —
+  the reference step j belongs to vehicle time ``t0 + j*dt`` (``time_boot_ms``); steps w..n-1 are scored;
+* ``ksbo f8 end L=<steps flown> <outcome>``.
+
+Pairing (fact sheet / scoring module): the state after control step k is the telemetry sample stamped
+``t0 + (k+1)*dt`` (the nearest step for a jittery stream), compared with the logged setpoint the client sent in
+answer to that sample, stamped with the sample's time (the reference at that instant). Samples lost
+on the link are filled by linear interpolation across gaps of at most :data:`MAX_GAP` steps; longer gaps stay
+missing and make the scored window incomplete.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ksbo_mav.errors import InputError
+from ksbo_mav.mav.mission import KINDS, MASK_POS_VEL_ACC, task_ref, task_state
+from ksbo_mav.objective import Trajectory
+
+MAX_GAP = 5
+START_RE = re.compile(r"^ksbo (f8h?) start t0=(\d+) n=(\d+) dt=(\d+) w=(\d+)$")
+END_RE = re.compile(r"^ksbo f8h? end L=(\d+) (\S+)$")
+_TAG_KIND = {tag: kind for kind, tag in KINDS.items()}
+
+
+def start_text(tag: str, t0_ms: int, n: int, dt_ms: int, w: int) -> str:
+    return f"ksbo {tag} start t0={t0_ms} n={n} dt={dt_ms} w={w}"
+
+
+def end_text(tag: str, L: int, outcome: str) -> str:
+    return f"ksbo {tag} end L={L} {outcome}"[:50]
+
+
+@dataclass
+class TrialRecorder:
+    """Collects one trial. ``vehicle`` = (sysid, compid) of the vehicle, or None to take the first vehicle
+    heartbeat seen (tlog replay)."""
+
+    vehicle: tuple[int, int] | None = None
+    kind: str = "figure8-xz"
+    t0: int | None = None
+    n: int = 0
+    dt: int = 0
+    w: int = 0
+    L: int | None = None
+    outcome: str = ""
+    pos: dict[int, np.ndarray] = field(default_factory=dict)
+    att: dict[int, np.ndarray] = field(default_factory=dict)
+    act: dict[int, np.ndarray] = field(default_factory=dict)
+    refs: dict[int, np.ndarray] = field(default_factory=dict)
+
+    def feed(self, msg: Any, sent: bool) -> None:
+        kind = msg.get_type()
+        if sent:
+            if kind == "STATUSTEXT":
+                self._marker(str(msg.text))
+            elif kind == "SET_POSITION_TARGET_LOCAL_NED" and self.t0 is not None and self.L is None \
+                    and msg.type_mask == MASK_POS_VEL_ACC and msg.coordinate_frame == 1:
+                self.refs[int(msg.time_boot_ms)] = _ned(msg)
+            return
+        if kind == "HEARTBEAT" and self.vehicle is None and msg.autopilot != 8 and msg.type != 6:
+            self.vehicle = (msg.get_srcSystem(), msg.get_srcComponent())
+        if self.t0 is None or self.L is not None or self.vehicle is None \
+                or (msg.get_srcSystem(), msg.get_srcComponent()) != self.vehicle:
+            return
+        if kind == "LOCAL_POSITION_NED":
+            self.pos[int(msg.time_boot_ms)] = _ned(msg)
+        elif kind == "ATTITUDE":
+            self.att[int(msg.time_boot_ms)] = np.array([msg.roll, msg.pitch, msg.rollspeed, msg.pitchspeed],
+                                                       dtype=float)
+        elif kind == "ACTUATOR_OUTPUT_STATUS":
+            self.act[int(msg.time_usec // 1000)] = np.array(msg.actuator[:2], dtype=float)
+
+    def _marker(self, text: str) -> None:
+        m = START_RE.match(text)
+        if m:
+            t0, n, dt, w = (int(g) for g in m.groups()[1:])
+            self.__init__(vehicle=self.vehicle)  # a new trial starts: forget anything before it
+            self.kind = _TAG_KIND[m.group(1)]
+            self.t0, self.n, self.dt, self.w = t0, n, dt, w
+            return
+        m = END_RE.match(text)
+        if m and self.t0 is not None and self.L is None:
+            self.L, self.outcome = int(m.group(1)), m.group(2)
+
+    @property
+    def finished(self) -> bool:
+        return self.L is not None
+
+    def trajectory(self, source: str) -> tuple[Trajectory, dict[str, Any]]:
+        """The trial as a :class:`Trajectory` plus bookkeeping (samples filled / missing, outcome)."""
+        if self.t0 is None:
+            raise InputError("no trial start marker ('ksbo f8 start ...') in the log")
+        if self.L is None:
+            raise InputError("the trial has no end marker ('ksbo f8 end ...'): the log stops mid-trial")
+        L = min(self.L, self.n)
+        col = lambda d, w: _column(d, self.t0, self.dt, L, w)  # noqa: E731
+        planar = self.kind == "figure8-xz"
+        cols = {"pos": col(self.pos, 6), "ref": col(self.refs, 6)}
+        if planar:  # pitch is a task state, thrusts enter P(a)'s input term
+            cols["att"] = col(self.att, 4)
+        have_act = planar and bool(self.act)
+        if have_act:
+            cols["act"] = col(self.act, 2)
+        missing = {k: int(np.isnan(c[:, 0]).sum()) for k, c in cols.items()}
+        filled = {k: _fill(c) for k, c in cols.items()}
+        still = {k: int(np.isnan(c[:, 0]).sum()) for k, c in cols.items()}
+        att = cols.get("att", np.full((L, 4), np.nan))
+        states = np.array([task_state(self.kind, p, a) for p, a in zip(cols["pos"], att)]).reshape(L, 6)
+        refs = np.array([task_ref(self.kind, r) for r in cols["ref"]]).reshape(L, 6)
+        traj = Trajectory(t=(np.arange(L) + 1) * self.dt / 1000.0, steps=np.arange(L), states=states,
+                          refs=refs, inputs=cols["act"] if have_act else None, L=L, source=source)
+        info = {"kind": self.kind, "t0_ms": self.t0, "n": self.n, "dt_ms": self.dt, "window": [self.w, self.n],
+                "L": L, "outcome": self.outcome,
+                "missing": missing, "filled": filled, "unfilled": still, "inputs": have_act}
+        return traj, info
+
+
+def _ned(msg: Any) -> np.ndarray:
+    """[x, y, z, vx, vy, vz] of a LOCAL_POSITION_NED or SET_POSITION_TARGET_LOCAL_NED."""
+    return np.array([msg.x, msg.y, msg.z, msg.vx, msg.vy, msg.vz], dtype=float)
+
+
+def _column(d: dict[int, np.ndarray], t0: int, dt: int, L: int, width: int) -> np.ndarray:
+    """Samples by control step: a stamp T belongs to the state after step k = round((T - t0) / dt) - 1 (exact in
+    lockstep; the nearest step for a real vehicle's jittery stream). Of two stamps in one step the later wins."""
+    out = np.full((L, width), np.nan)
+    for t in sorted(d):
+        k = int(round((t - t0) / dt)) - 1
+        if 0 <= k < L:
+            out[k] = d[t]
+    return out
+
+
+def _fill(col: np.ndarray) -> int:
+    """Linear interpolation over interior NaN runs of length <= MAX_GAP (in place); returns samples filled."""
+    bad = np.isnan(col[:, 0])
+    if not bad.any():
+        return 0
+    idx = np.flatnonzero(~bad)
+    filled = 0
+    i, n = 0, len(col)
+    while i < n:
+        if not bad[i]:
+            i += 1
+            continue
+        j = i
+        while j < n and bad[j]:
+            j += 1
+        if i > 0 and j < n and j - i <= MAX_GAP and idx.size:
+            w = (np.arange(i, j) - (i - 1)) / (j - (i - 1))
+            col[i:j] = col[i - 1] + w[:, None] * (col[j] - col[i - 1])
+            filled += j - i
+        i = j
+    return filled
+
+
+def trajectory_from_tlog(records: list[Any]) -> tuple[Trajectory, dict[str, Any], TrialRecorder]:
+    """Replay tlog records (see :func:`ksbo_mav.mav.tlog.read_tlog`) through a recorder."""
+    rec = TrialRecorder()
+    for r in records:
+        rec.feed(r.msg, r.sent)
+    traj, info = rec.trajectory("tlog")
+    return traj, info, rec

@@ -1,0 +1,45 @@
+"""Shared pieces of the MAVLink tuning-client tests: the simulator in its own process (lockstep, sending to a
+UDP port where the client listens, as a ground station), and an independent second connection for fresh reads."""
+
+from __future__ import annotations
+
+import os
+
+os.environ["MAVLINK20"] = "1"
+
+from contextlib import contextmanager
+
+from ksbo_mav.cli.demo import SimProcess, free_udp_port
+from ksbo_mav.mav.link import Endpoint
+from ksbo_mav.mav.vehicle import Vehicle
+
+GAINS = ("POS_X_P", "POS_X_I", "POS_X_D", "POS_Z_P", "POS_Z_I", "POS_Z_D", "ATT_PIT_P", "ATT_PIT_I", "ATT_PIT_D")
+
+
+@contextmanager
+def sim_and_endpoint(*extra: str):
+    """Yield (sim process, endpoint the tuner listens on)."""
+    port = free_udp_port()
+    sim = SimProcess(port, *extra)
+    try:
+        yield sim, Endpoint("udp", "127.0.0.1", port)
+    finally:
+        sim.stop()
+
+
+def fresh_read(sim: SimProcess, names=GAINS, profile: str | None = "sim-planar") -> dict[str, float]:
+    """Read parameters over a second, independent connection (talks first to the simulator's own port)."""
+    v = Vehicle.connect(Endpoint("udpout", "127.0.0.1", sim.port), profile, sysid=250, compid=190)
+    try:
+        return {n: v.params.read(n, retries=8) for n in names}
+    finally:
+        v.close()
+
+
+def baseline() -> dict[str, float]:
+    from ksbo_mav.profiles import load_profile
+
+    import numpy as np
+
+    prof = load_profile("sim-planar")
+    return {n: float(np.float32(x)) for n, x in zip(prof.names, prof.default)}

@@ -1,0 +1,148 @@
+"""Issue 7: campaigns against the simulator process over loopback UDP: improvement with the baseline restored
+(fresh read), accept / restore commands, Ctrl-C, and SIGKILL followed by --resume and restore."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from mav_tune_helpers import baseline, fresh_read, sim_and_endpoint
+
+from ksbo_mav.cli import main
+from ksbo_mav.tune import Campaign, CampaignConfig
+
+pytestmark = [pytest.mark.network]
+
+
+def _journal(d: Path) -> list[dict]:
+    p = d / "journal.jsonl"
+    return [json.loads(line) for line in p.read_text().splitlines()] if p.exists() else []
+
+
+def _wait_journal(d: Path, n: int, proc: subprocess.Popen, timeout: float = 120.0) -> None:
+    deadline = time.monotonic() + timeout
+    while len(_journal(d)) < n:
+        assert proc.poll() is None, proc.stderr.read() if proc.stderr else "tuner exited early"
+        assert time.monotonic() < deadline, "tuner made no progress"
+        time.sleep(0.05)
+
+
+def _tune_cmd(d: Path, port: int, *extra: str) -> list[str]:
+    return [sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp", f"127.0.0.1:{port}", *extra]
+
+
+@pytest.mark.timeout(180)
+def test_short_campaign_improves_then_restores_accept_and_restore_commands(tmp_path, capsys):
+    d = tmp_path / "camp"
+    with sim_and_endpoint() as (sim, ep):
+        cfg = CampaignConfig(dir=str(d), budget=6, seed=0, prior="sim", end="hold")
+        summary = Campaign(cfg, ep, log=lambda s: None).run()
+        assert summary["best"]["P_confirm"] > summary["baseline"]["P"] + 0.2  # 0.19 -> ~0.8 in practice
+        assert summary["n_trials"] == 7 and not summary["accepted"]
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+        for name in ("convergence", "safety", "trajectory"):
+            assert Path(summary["plots"][name]).stat().st_size > 0
+        for f in ("campaign.json", "prior.json", "result.json", "snapshot/vehicle.param", "snapshot/vehicle.params"):
+            assert (d / f).exists()
+        # Every journalled trial has its record and tlog, and the record's score is the tlog's score.
+        for e in _journal(d):
+            rec = json.loads(Path(e["record"]).read_text())
+            assert rec["score"]["P"] == e["P"] and Path(rec["tlog"]).stat().st_size > 0
+
+        port = str(ep.port)
+        assert main(["accept", str(d), "--udp", f"127.0.0.1:{port}"]) == 0
+        best = summary["best"]["values"]
+        assert fresh_read(sim) == pytest.approx(best, rel=1e-6)
+        assert "->" in (d / "diff.txt").read_text() and (d / "accepted.params").exists()
+        assert main(["restore", str(d), "--udp", f"127.0.0.1:{port}"]) == 0
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+        assert "verified" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(180)
+def test_campaign_with_accept_leaves_best_gains(tmp_path):
+    with sim_and_endpoint() as (sim, ep):
+        cfg = CampaignConfig(dir=str(tmp_path / "c"), budget=5, seed=1, prior="sim", accept=True)
+        summary = Campaign(cfg, ep, log=lambda s: None).run()
+        assert summary["accepted"]
+        assert fresh_read(sim) == pytest.approx(summary["best"]["values"], rel=1e-6)
+        assert (tmp_path / "c" / "accepted.param").exists()
+
+
+@pytest.mark.timeout(180)
+def test_sigint_mid_campaign_restores_baseline(tmp_path):
+    d = tmp_path / "camp"
+    with sim_and_endpoint() as (sim, ep):
+        proc = subprocess.Popen(_tune_cmd(d, ep.port, "--budget", "30"), stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        try:
+            _wait_journal(d, 2, proc)
+            time.sleep(0.5)  # well inside the next trial
+            proc.send_signal(signal.SIGINT)
+            out, err = proc.communicate(timeout=60)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        assert proc.returncode == 130, err
+        assert "baseline" in err and "restored" in err and "Traceback" not in err
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+
+
+@pytest.mark.timeout(240)
+def test_sigkill_then_restore_and_resume_loses_and_reflies_nothing(tmp_path):
+    d = tmp_path / "camp"
+    with sim_and_endpoint() as (sim, ep):
+        proc = subprocess.Popen(_tune_cmd(d, ep.port, "--budget", "6", "--end", "hold"),
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            _wait_journal(d, 3, proc)
+            time.sleep(0.4)
+            os.kill(proc.pid, signal.SIGKILL)
+            proc.wait(10)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        before = _journal(d)
+        assert len(before) >= 3
+        # The tool is gone; the snapshot alone brings the baseline back.
+        assert main(["restore", str(d / "snapshot" / "vehicle.json"), "--udp", f"127.0.0.1:{ep.port}"]) == 0
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+
+        res = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", "--resume", str(d), "--udp",
+                              f"127.0.0.1:{ep.port}"], capture_output=True, text=True, timeout=200)
+        assert res.returncode == 0, res.stderr
+        assert f"replaying {len([e for e in before if e['kind'] == 'opt'])} journalled" in res.stderr
+        assert "differ from the journal" not in res.stderr  # the optimiser replayed deterministically
+        after = _journal(d)
+        assert after[: len(before)] == before  # nothing recorded was lost or rewritten
+        opt = [e for e in after if e["kind"] == "opt"]
+        assert len(opt) == 6  # the budget, counting the trials flown before the kill once
+        trials = [e["trial"] for e in after]
+        assert trials == sorted(set(trials))  # every trial flown once, numbered in order
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(180)
+def test_local_prior_is_flown_around_the_baseline_and_journalled(tmp_path):
+    with sim_and_endpoint() as (sim, ep):
+        cfg = CampaignConfig(dir=str(tmp_path / "c"), budget=3, seed=2, prior="local", n_prior=4, end="hold")
+        summary = Campaign(cfg, ep, log=lambda s: None).run()
+        entries = _journal(tmp_path / "c")
+        assert [e["kind"] for e in entries] == ["prior"] * 4 + ["opt"] * 3 + ["confirm"]
+        assert summary["n_trials"] == 8
+        x0 = summary["baseline"]["x"]
+        from ksbo_mav.profiles import load_profile
+
+        width = load_profile("sim-planar").bounds @ [-1.0, 1.0]
+        for e in entries[:4]:  # local LHS: within 10 % of the optimiser box around the baseline
+            assert all(abs(a - b) <= 0.1 * w + 1e-9 for a, b, w in zip(e["x"], x0, width))
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
