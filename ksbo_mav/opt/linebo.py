@@ -71,8 +71,9 @@ def run_linebo(problem: Problem, opts: Options, seed: int | None) -> OptimizeRes
             if problem.remaining <= 0:
                 break
             mu, sd, lcb, ucb = bo.bounds(P)
-            lo, hi = safe_interval(lcb >= problem.p_min, i0)
-            if lcb[i0] < problem.p_min:
+            ok = bo.feasible(P, lcb)
+            lo, hi = safe_interval(ok, i0)
+            if not ok[i0]:
                 # x_b itself is no longer certified: re-evaluate the best-LCB observation (fallback).
                 bo.fallbacks += 1
                 j = int(np.argmax(bo.bounds(bo.X)[2]))

@@ -18,19 +18,28 @@ class Options:
         boundary_tol: boundary band in units of the prior std.
         n_global, n_local, local_scales: candidates per iteration (Sobol; Gaussian clouds around safe points).
         refit_every: full GP refit every k iterations (0: rank-one updates only); optimize_hypers: ML-II on refits.
-        recommend: "mean" or "lcb" among evaluated certified-safe points.
+        recommend: "mean" or "lcb" of the smoothing GP among evaluated certified-safe points.
+        recommend_noise: noise std of that smoothing GP as a fraction of the prior std (None: the safety GP).
+        cap_mean: the safety bound uses min(μ, max observed y).
+        y_max: known upper bound of fun (clips posterior means; P ≤ 1 on the quadrotor).
+        exclusion_radius: no certified point within this distance (unit cube) of an unsafe observation.
+        exploit_last: final evaluations that maximise the posterior mean inside the safe set.
+        (Details of these in opt.safe_bo.SafeBOConfig.)
         lengthscale, signal_std, signal_scale, noise_std, noise_ratio: GP prior (see opt.model.ModelSpec).
+        safety_kernel: "same" (the method's GP certifies safety) or "se" (additionally an SE-ARD GP with
+        ``safety_lengthscale`` must certify it: LCB = min of both).
     Kernel selection (ksbo):
         orders: fixed orders (skips selection); top: how many orders to keep; trials: Algorithm-1 repetitions;
         min_select: fewest observations for selection (fewer → default_orders); dims: "all", "forest" or
-        "permutation" (dimension selection per kept order); dropped: what happens to unselected dimensions —
+        "permutation" (dimension selection per kept order); select_at: BO iteration after which the kernel is
+        selected again on all data (0 = never); dropped: what happens to unselected dimensions —
         "fixed" (held at x0, ignored by the kernel) or "order1" (kept in an order-1 term, still optimised).
     LineBO: line_budget (max queries per line), directions ("random" or "coordinate"), line_points (grid size).
     Unconstrained (ucb, ei): unconstrained_refit (ML-II every k iterations), xi (EI margin).
     """
 
-    beta: float = 2.0
-    beta_ucb: float | None = None
+    beta: float = 4.0
+    beta_ucb: float | None = 2.0
     rule: str = "ucb"
     expansion_iters: int = 10
     boundary_tol: float = 0.1
@@ -39,16 +48,24 @@ class Options:
     local_scales: tuple[float, ...] = (0.02, 0.05, 0.1, 0.2)
     refit_every: int = 0
     optimize_hypers: bool = False
-    recommend: str = "mean"
-    lengthscale: float = 0.2
+    recommend: str = "lcb"
+    cap_mean: bool = True
+    recommend_noise: float | None = 0.2
+    y_max: float | None = None
+    exploit_last: int = 0
+    exclusion_radius: float = 0.05
+    lengthscale: float = 0.1
     signal_std: float | None = None
     signal_scale: float = 2.0
     noise_std: float | None = None
     noise_ratio: float = 0.02
+    safety_kernel: str = "se"
+    safety_lengthscale: float = 0.07
     orders: tuple[int, ...] | None = None
     top: int = 3
     trials: int = 200
     min_select: int = 10
+    select_at: int = 0
     default_orders: tuple[int, ...] = (1, 2, 3)
     dims: str = "all"
     dropped: str = "fixed"
@@ -59,21 +76,43 @@ class Options:
     xi: float = 0.0
 
     def update(self, overrides: Mapping[str, Any]) -> "Options":
-        """Copy with ``overrides`` applied; unknown names raise :class:`InputError`."""
+        """Copy with ``overrides`` applied; unknown names or invalid choices raise :class:`InputError`."""
         names = {f.name for f in fields(self)}
         bad = sorted(set(overrides) - names)
         if bad:
             raise InputError(f"unknown option(s) {', '.join(bad)}; known: {', '.join(sorted(names))}")
-        return replace(self, **dict(overrides))
+        new = replace(self, **dict(overrides))
+        new.validate()
+        return new
+
+    def validate(self) -> None:
+        """Raise :class:`InputError` for a choice outside its allowed values or a non-positive scale."""
+        for name, allowed in _CHOICES.items():
+            if getattr(self, name) not in allowed:
+                raise InputError(f"option {name}={getattr(self, name)!r} must be one of {', '.join(allowed)}")
+        if not (self.beta > 0 and self.lengthscale > 0 and self.safety_lengthscale > 0):
+            raise InputError("beta, lengthscale and safety_lengthscale must be positive")
+        if self.signal_std is not None and not self.signal_std > 0:
+            raise InputError("signal_std must be positive")
+
+
+_CHOICES: dict[str, tuple[str, ...]] = {
+    "rule": ("ucb", "safeopt"),
+    "recommend": ("mean", "lcb"),
+    "safety_kernel": ("same", "se"),
+    "dims": ("all", "forest", "permutation"),
+    "dropped": ("fixed", "order1"),
+    "directions": ("random", "coordinate"),
+}
 
 
 #: Defaults that differ per method (applied before the user's overrides).
 METHOD_DEFAULTS: dict[str, dict[str, Any]] = {
     "ksbo": {},
     "standard": {},
-    "safeopt": {"rule": "safeopt", "lengthscale": 0.1},
-    "linebo": {"lengthscale": 0.1},
-    "ucb": {},
+    "safeopt": {"rule": "safeopt", "lengthscale": 0.07},
+    "linebo": {"lengthscale": 0.07},
+    "ucb": {"beta": 2.0},
     "ei": {},
     "random": {},
 }

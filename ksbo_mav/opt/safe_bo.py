@@ -31,7 +31,8 @@ RULES = ("ucb", "safeopt")
 
 @dataclass(frozen=True)
 class SafeBOConfig:
-    """Settings of :class:`SafeBO` (defaults tuned on the planar-quadrotor task, see BENCHMARKS.md).
+    """Settings of :class:`SafeBO` (building-block defaults; the user-facing defaults, tuned on the planar
+    quadrotor, are those of :class:`ksbo_mav.opt.options.Options`).
 
     Attributes:
         beta: safety multiplier: certified safe ⇔ μ − beta σ ≥ p_min.
@@ -46,6 +47,19 @@ class SafeBOConfig:
         refine_starts, refine_rounds, refine_samples, refine_scale: constrained local refinement (candidates.refine).
         refit_every: full refit (ML-II if the model spec asks) every this many iterations; 0 = rank-one updates only.
         recommend: ``"mean"`` or ``"lcb"``: criterion for the recommendation among evaluated certified-safe points.
+        cap_mean: in the safety bound use ``min(μ, max observed y)``: a GP mean overshooting every observation is
+            extrapolation, and certifying a point on it was the commonest route to unsafe queries on the quadrotor.
+        recommend_noise: if set, the recommendation uses a second GP (same kernel) with noise std
+            ``recommend_noise × signal_std``: one lucky
+            episode of a bistable gain vector next to crashed neighbours is then averaged with them.
+        y_max: known upper bound of the objective (P ≤ 1 on the quadrotor task); posterior means above it are
+            clipped in both bounds, so an overshooting additive model cannot drive the acquisition there.
+        exclusion_radius: candidates closer than this (unit cube, Euclidean) to an unsafe observation are never
+            certified. A Gaussian-noise GP treats one lucky episode of a bistable gain vector (0.9, where most
+            initial conditions crash) as solid evidence and keeps certifying the shell around it, crash after crash;
+            an unsafe outcome nearby is stronger evidence against the region than the GP admits.
+        exploit_last: the last this many evaluations of the budget maximise the posterior mean inside the safe set
+            (no exploration bonus): exploring then cannot pay off any more, it only risks unsafe queries.
     """
 
     beta: float = 2.0
@@ -63,6 +77,11 @@ class SafeBOConfig:
     refine_scale: float = 0.05
     refit_every: int = 0
     recommend: str = "mean"
+    cap_mean: bool = True
+    recommend_noise: float | None = None
+    y_max: float | None = None
+    exploit_last: int = 0
+    exclusion_radius: float = 0.0
 
 
 @dataclass
@@ -70,7 +89,7 @@ class Proposal:
     """One proposed query: x (d,) unit cube, its posterior summary and how it was chosen."""
 
     x: np.ndarray
-    kind: str  # "expand" | "ucb" | "safeopt" | "fallback"
+    kind: str  # "expand" | "ucb" | "safeopt" | "exploit" | "fallback"
     mu: float
     sd: float
     lcb: float
@@ -85,10 +104,12 @@ class SafeBO:
     free: np.ndarray  # (d,) bool: dimensions the optimiser may move (others stay at the start value)
     rng: np.random.Generator
     x0: np.ndarray | None = None  # (d,) start; fixed dimensions take its values (default: first data point)
+    safety_model: SafetyModel | None = None  # optional second GP whose LCB must also clear p_min
     X: np.ndarray = field(init=False)
     y: np.ndarray = field(init=False)
     iteration: int = field(default=0, init=False)
     fallbacks: int = field(default=0, init=False)
+    remaining: int | None = field(default=None, init=False)  # evaluations left, set by the driver loop
 
     def __post_init__(self) -> None:
         if self.config.rule not in RULES:
@@ -104,6 +125,8 @@ class SafeBO:
         if self.x0 is None:
             self.x0 = self.X[0].copy()
         self.model.fit(self.X, self.y)
+        if self.safety_model is not None:
+            self.safety_model.fit(self.X, self.y)
 
     def observe(self, x: np.ndarray, y: float) -> None:
         """Add one evaluation and advance the BO iteration counter (which keys the expansion phase)."""
@@ -111,10 +134,13 @@ class SafeBO:
         self.X = np.vstack([self.X, np.asarray(x, float).reshape(1, -1)])
         self.y = np.append(self.y, float(y))
         k = self.config.refit_every
-        if k and self.iteration % k == 0:
-            self.model.fit(self.X, self.y)
-        else:
-            self.model.add(x, y)
+        for m in (self.model, self.safety_model):
+            if m is None:
+                continue
+            if k and self.iteration % k == 0:
+                m.fit(self.X, self.y)
+            else:
+                m.add(x, y)
 
     # -- posterior ----------------------------------------------------------------------------------------------
     @property
@@ -122,14 +148,38 @@ class SafeBO:
         return self.model.p_min
 
     def bounds(self, Xc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Posterior mean, marginal std, LCB (safety β) and UCB (acquisition β) at Xc (m, d); four (m,) arrays."""
+        """Posterior mean, marginal std, LCB (safety β) and UCB (acquisition β) at Xc (m, d); four (m,) arrays.
+
+        With a ``safety_model`` the LCB is the smaller of both models' bounds (a point must be certified by both);
+        mean, std and UCB are the main model's.
+        """
         mu, sd = self.model.predict(Xc)
+        if self.config.y_max is not None:
+            mu = np.minimum(mu, self.config.y_max)
         b_ucb = self.config.beta if self.config.beta_ucb is None else self.config.beta_ucb
-        return mu, sd, mu - self.config.beta * sd, mu + b_ucb * sd
+        cap = self.y.max() if self.config.cap_mean and self.y.size else np.inf
+        if self.config.y_max is not None:
+            cap = min(cap, self.config.y_max)
+        lcb = np.minimum(mu, cap) - self.config.beta * sd
+        if self.safety_model is not None:
+            mu_s, sd_s = self.safety_model.predict(Xc)
+            lcb = np.minimum(lcb, np.minimum(mu_s, cap) - self.config.beta * sd_s)
+        return mu, sd, lcb, mu + b_ucb * sd
 
     def safe_mask(self, Xc: np.ndarray) -> np.ndarray:
-        """(m,) bool: which of Xc are certified safe (LCB ≥ p_min)."""
-        return self.bounds(Xc)[2] >= self.p_min
+        """(m,) bool: which of Xc are certified safe (LCB ≥ p_min and outside every exclusion ball)."""
+        return self.feasible(Xc, self.bounds(Xc)[2])
+
+    def feasible(self, Z: np.ndarray, lcb: np.ndarray) -> np.ndarray:
+        """(m,) bool: Z (m, d) with lower bounds ``lcb`` (m,) certified (LCB ≥ p_min, no unsafe point nearby)."""
+        ok = lcb >= self.p_min
+        r = self.config.exclusion_radius
+        bad = self.X[self.y < self.p_min]
+        if r > 0 and bad.shape[0] and ok.any():
+            d2 = ((Z[ok, None, :] - bad[None, :, :]) ** 2).sum(-1).min(axis=1)
+            idx = np.flatnonzero(ok)
+            ok[idx[d2 < r * r]] = False
+        return ok
 
     # -- candidates ---------------------------------------------------------------------------------------------
     def _anchors(self, lcb_d: np.ndarray, ucb_d: np.ndarray) -> np.ndarray:
@@ -162,20 +212,30 @@ class SafeBO:
         mu_d, sd_d, lcb_d, ucb_d = self.bounds(self.X)
         C = self.candidates(self._anchors(lcb_d, ucb_d))
         mu, sd, lcb, ucb = self.bounds(C)
-        safe = lcb >= self.p_min
+        safe = self.feasible(C, lcb)
         if not safe.any():
             self.fallbacks += 1
-            i = int(np.argmax(lcb_d))
+            # Re-evaluate the best-LCB observation that lies in the search subspace (x0 always does).
+            inside = np.all(self.X[:, ~self.free] == self.x0[~self.free], axis=1)
+            i = int(np.argmax(np.where(inside, lcb_d, -np.inf))) if inside.any() else int(np.argmax(lcb_d))
             return Proposal(self.X[i].copy(), "fallback", float(mu_d[i]), float(sd_d[i]), float(lcb_d[i]))
         band = c.boundary_tol * self.model.signal_std
         p_min = self.p_min
 
-        if c.rule == "ucb" and self.iteration >= c.expansion_iters:
+        if self.remaining is not None and self.remaining <= c.exploit_last:
+            kind = "exploit"
+
+            def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                m, _, lo, _ = self.bounds(Z)
+                return m, self.feasible(Z, lo)
+
+            score = np.where(safe, mu, -np.inf)
+        elif c.rule == "ucb" and self.iteration >= c.expansion_iters:
             kind = "ucb"
 
             def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                 _, _, lo, up = self.bounds(Z)
-                return up, lo >= p_min
+                return up, self.feasible(Z, lo)
 
             score = np.where(safe, ucb, -np.inf)
         elif c.rule == "ucb":
@@ -185,21 +245,28 @@ class SafeBO:
 
             def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                 _, s, lo, _ = self.bounds(Z)
-                return s, lo >= p_min
+                return s, self.feasible(Z, lo)
 
             score = np.where(pool, sd, -np.inf)
         else:
             kind = "safeopt"
             best_lcb = max(float(lcb[safe].max()), float(np.max(np.where(lcb_d >= p_min, lcb_d, -np.inf))))
 
-            def in_pool(lo: np.ndarray, up: np.ndarray) -> np.ndarray:
-                return (lo >= p_min) & ((up >= best_lcb) | (lo - p_min <= band))
+            def in_pool(Z: np.ndarray, lo: np.ndarray, up: np.ndarray) -> np.ndarray:
+                return self.feasible(Z, lo) & ((up >= best_lcb) | (lo - p_min <= band))
 
             def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                 _, s, lo, up = self.bounds(Z)
-                return s, in_pool(lo, up)
+                return s, in_pool(Z, lo, up)
 
-            pool = in_pool(lcb, ucb)
+            pool = in_pool(C, lcb, ucb)
+            if not pool.any():  # an observation's LCB beats every candidate's UCB: widest safe candidate
+                pool = safe
+
+                def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                    _, s, lo, _ = self.bounds(Z)
+                    return s, self.feasible(Z, lo)
+
             score = np.where(pool, sd, -np.inf)
 
         order = np.argsort(-score)[: c.refine_starts]
@@ -210,7 +277,7 @@ class SafeBO:
         j = int(np.argmax(s_ref))
         x = starts[j]
         m, s, lo, _ = self.bounds(x[None, :])
-        if lo[0] < p_min:  # cannot happen (refine only accepts feasible moves); kept as a hard guard
+        if not self.feasible(x[None, :], lo)[0]:  # cannot happen (refine only accepts feasible moves): a guard
             x = C[order[0]]
             m, s, lo, _ = self.bounds(x[None, :])
         return Proposal(x.copy(), kind, float(m[0]), float(s[0]), float(lo[0]))
@@ -224,6 +291,13 @@ class SafeBO:
         """
         mu, _, lcb, _ = self.bounds(self.X)
         ok = (self.y >= self.p_min) & (lcb >= self.p_min)
+        if self.config.recommend_noise is not None:
+            smooth = SafetyModel(self.model.spec.with_(signal_std=self.model.signal_std,
+                                                       noise_std=self.config.recommend_noise * self.model.signal_std),
+                                 self.model.dim, self.p_min, self.model.seed)
+            smooth.fit(self.X, self.y)
+            mu_s, sd_s = smooth.predict(self.X)
+            mu, lcb = mu_s, mu_s - self.config.beta * sd_s
         if not ok.any():
             ok = self.y >= self.p_min
         if not ok.any():
@@ -233,10 +307,19 @@ class SafeBO:
         return i, float(mu[i]), float(lcb[i])
 
 
-def run_safe_bo(problem: Problem, bo: SafeBO) -> SafeBO:
-    """Spend the remaining budget of ``problem`` with ``bo`` (already fitted on ``problem.data()``)."""
-    while problem.remaining > 0:
+def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None) -> list[dict]:
+    """Spend the remaining budget of ``problem`` with ``bo`` (already fitted on ``problem.data()``).
+
+    With ``max_iters`` stop once ``bo.iteration`` reaches it (e.g. to re-select the kernel).
+
+    Returns one record per query (kind, posterior mean/std/LCB at proposal time, observed y): the data for
+    checking the model's calibration (how often was a certified point unsafe?).
+    """
+    log = []
+    while problem.remaining > 0 and (max_iters is None or bo.iteration < max_iters):
+        bo.remaining = problem.remaining
         p = bo.propose()
         y = problem.evaluate(p.x)
         bo.observe(p.x, y)
-    return bo
+        log.append({"kind": p.kind, "mu": p.mu, "sd": p.sd, "lcb": p.lcb, "y": y})
+    return log

@@ -7,6 +7,12 @@
 
 All three share the GP prior scales, β, candidates and recommendation rule, so a difference in results is the
 kernel (and, for safeopt, the acquisition rule).
+
+By default (``safety_kernel="se"``) the additive methods do not certify safety with their own GP alone: a local
+SE-ARD GP (lengthscale ``safety_lengthscale``, the safeopt model) must certify every query as well. An additive
+kernel keeps a correlation of (D − r)/D when one dimension moves arbitrarily far, which on the quadrotor (cliffs
+at the limit-cycle and z-loop boundaries, part D of the fact sheet) certified crashing gains; the additive GP
+still drives the acquisition and the recommendation, which is where kernel selection pays (BENCHMARKS.md).
 """
 
 from __future__ import annotations
@@ -35,6 +41,11 @@ def bo_config(opts: Options) -> SafeBOConfig:
         local_scales=tuple(opts.local_scales),
         refit_every=opts.refit_every,
         recommend=opts.recommend,
+        cap_mean=opts.cap_mean,
+        recommend_noise=opts.recommend_noise,
+        y_max=opts.y_max,
+        exploit_last=opts.exploit_last,
+        exclusion_radius=opts.exclusion_radius,
     )
 
 
@@ -67,13 +78,16 @@ def select_kernel(X: np.ndarray, y: np.ndarray, opts: Options, seed: int | None)
                 "reason": f"{len(y)} observations < min_select={opts.min_select}"}
     from ksbo_mav.select import select_orders
 
-    sel = select_orders(X, y, orders=range(1, d + 1), trials=opts.trials, top=opts.top, seed=seed)
+    # C_ree is computed with the base lengthscale the GP will use, so the ranking is about this model.
+    sel = select_orders(X, y, orders=range(1, d + 1), trials=opts.trials, top=opts.top, seed=seed,
+                        lengthscales=opts.lengthscale)
     orders = tuple(int(r) for r in sel.orders)[: opts.top]
     out: dict[str, Any] = {
         "orders": orders,
         "dims": None,
         "selected": True,
-        "cree": {int(r): float(m) for r, m in zip(range(1, d + 1), np.asarray(sel.mean).reshape(-1))},
+        "cree": {int(r): float(v) for r, v in sel.mean.items()},
+        "top_frequency": {int(r): float(v) for r, v in sel.top_frequency.items()},
     }
     if opts.dims != "all":
         from ksbo_mav.select import select_dimensions
@@ -81,7 +95,7 @@ def select_kernel(X: np.ndarray, y: np.ndarray, opts: Options, seed: int | None)
         kept: set[int] = set()
         per_order = {}
         for r in orders:
-            ds = select_dimensions(X, y, r, method=opts.dims)
+            ds = select_dimensions(X, y, r, method=opts.dims, seed=seed)
             dims_r = getattr(ds, "dims", ds)
             per_order[int(r)] = [int(i) for i in dims_r]
             kept.update(per_order[int(r)])
@@ -92,8 +106,36 @@ def select_kernel(X: np.ndarray, y: np.ndarray, opts: Options, seed: int | None)
     return out
 
 
+def _build(
+    problem: Problem, opts: Options, orders: tuple[int, ...], dims: tuple[int, ...] | None, seed: int | None,
+    rng: np.random.Generator,
+) -> SafeBO:
+    d = problem.dim
+    orders = tuple(r for r in orders if 1 <= r <= d) or (d,)
+    spec = model_spec(opts, orders, dims)
+    if dims is not None:
+        # Orders above the number of active dimensions do not exist on the subspace.
+        spec = spec.with_(orders=tuple(r for r in orders if r <= len(dims)) or (len(dims),))
+    model = SafetyModel(spec, d, problem.p_min, seed=seed)
+    safety = None
+    if opts.safety_kernel == "se" and spec.orders != (d,):
+        # A local, product-SE GP must certify safety too: additive kernels keep a high correlation when one
+        # dimension changes a lot, which on a task with cliffs certifies unsafe gains (see BENCHMARKS.md).
+        sspec = model_spec(opts.update({"lengthscale": opts.safety_lengthscale}), (d,), None)
+        safety = SafetyModel(sspec, d, problem.p_min, seed=seed)
+    elif opts.safety_kernel not in ("same", "se"):
+        raise ValueError(f"unknown safety_kernel {opts.safety_kernel!r}")
+    return SafeBO(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
+                  safety_model=safety)
+
+
 def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | None) -> OptimizeResult:
-    """Run ``ksbo``, ``standard`` or ``safeopt`` on ``problem`` (x0 already evaluated)."""
+    """Run ``ksbo``, ``standard`` or ``safeopt`` on ``problem`` (x0 already evaluated).
+
+    ksbo selects its kernel on the data available before BO (prior + x0); with ``select_at = k > 0`` it selects
+    again on all data after k BO iterations (for runs without an informative prior) and continues with the new
+    kernel, keeping the iteration counter and the prior scales.
+    """
     d = problem.dim
     X, y = problem.data()
     info: dict[str, Any] = {"options": opts}
@@ -108,17 +150,25 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
     else:
         raise ValueError(method)
     rng = np.random.default_rng(seed)
-    spec = model_spec(opts, orders, dims)
-    if dims is not None:
-        # Orders above the number of active dimensions do not exist on the subspace.
-        spec = spec.with_(orders=tuple(r for r in orders if r <= len(dims)) or (len(dims),))
-    model = SafetyModel(spec, d, problem.p_min, seed=seed)
-    bo = SafeBO(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0)
+    bo = _build(problem, opts, orders, dims, seed, rng)
     bo.fit(X, y)
-    run_safe_bo(problem, bo)
+    reselect = method == "ksbo" and opts.select_at > 0 and opts.orders is None
+    log = run_safe_bo(problem, bo, max_iters=opts.select_at if reselect else None)
+    if reselect and problem.remaining > 0:
+        X, y = problem.data()
+        sel = select_kernel(X, y, opts, seed)
+        info["reselection"] = {"at_iteration": bo.iteration, **sel}
+        fixed = opts.update({"signal_std": bo.model.signal_std, "noise_std": bo.model.noise_std})
+        old = bo
+        bo = _build(problem, fixed, sel["orders"], sel["dims"], seed, rng)
+        bo.iteration, bo.fallbacks = old.iteration, old.fallbacks
+        bo.fit(X, y)
+        log += run_safe_bo(problem, bo)
+    info["proposals"] = log
     i, mu, lcb = bo.recommend()
-    info["signal_std"] = model.signal_std
-    info["noise_std"] = model.noise_std
+    info["signal_std"] = bo.model.signal_std
+    info["noise_std"] = bo.model.noise_std
     return build_result(
-        problem, method, i, mu=mu, lcb=lcb, orders=tuple(spec.orders), dims=dims, fallbacks=bo.fallbacks, info=info
+        problem, method, i, mu=mu, lcb=lcb, orders=tuple(bo.model.spec.orders), dims=bo.model.spec.active_dims,
+        fallbacks=bo.fallbacks, info=info,
     )
