@@ -10,7 +10,7 @@ with their step index k; the in-process simulator, MAVLink telemetry and offline
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, asdict
+from dataclasses import dataclass, field
 
 import numpy as np
 

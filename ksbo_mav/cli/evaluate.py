@@ -7,7 +7,6 @@ import argparse
 import numpy as np
 
 from ksbo_mav.cli.common import parse_gains, positive_int, to_json
-from ksbo_mav.errors import InputError
 from ksbo_mav.profiles import load_profile
 
 HELP = "fly PID gains on the built-in planar simulator (figure-8) and print their score P(a)"
@@ -32,8 +31,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ksbo_mav.objective import SimObjective, Trajectory
-    from ksbo_sim.episode import REASONS, fixed_initial_states, random_initial_states
+    from ksbo_mav.objective import SimObjective
+    from ksbo_sim.episode import fixed_initial_states, random_initial_states
 
     profile = load_profile(args.profile)
     gains = profile.check_gains(parse_gains(args.gains, profile), within_box=False)

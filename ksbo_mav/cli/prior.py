@@ -6,20 +6,10 @@ import argparse
 
 import numpy as np
 
-from ksbo_mav.cli.common import positive_int, to_json
+from ksbo_mav.cli.common import positive_float, positive_int, to_json
 from ksbo_mav.errors import InputError
 
 HELP = "draw a Latin-hypercube prior of gains, fly each on the simulator, and write gains + P to a CSV"
-
-
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (v > 0 and np.isfinite(v)):
-        raise argparse.ArgumentTypeError("must be a positive number")
-    return v
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -30,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--n", type=positive_int, default=36, help="number of prior points")
     p.add_argument("--design", choices=("box", "local"), default="box", help="where to sample")
-    p.add_argument("--radius", type=_positive_float, default=0.1,
+    p.add_argument("--radius", type=positive_float, default=0.1,
                    help="half-width of the local trust region in unit-cube units")
     p.add_argument("--seed", type=int, default=0, help="seed of the design and of the initial velocities")
     p.add_argument("--episodes", type=positive_int, default=1,

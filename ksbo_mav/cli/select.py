@@ -4,21 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
 
-from ksbo_mav.cli.common import positive_int, to_json
+from ksbo_mav.cli.common import positive_float, positive_int, to_json
 
 HELP = "rank additive-kernel orders by C_ree (Algorithm 1, repeated) and pick the dimensions of each chosen order"
-
-
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (v > 0 and np.isfinite(v)):
-        raise argparse.ArgumentTypeError("must be a positive number")
-    return v
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -31,13 +20,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--top", type=positive_int, default=3, help="number of orders kept")
     p.add_argument("--columns", type=positive_int, default=None, help="sampled columns c (default round(0.8 l))")
     p.add_argument("--rank", type=positive_int, default=None, help="rank k kept from W (default c)")
-    p.add_argument("--mu", type=_positive_float, default=0.1, help="Algorithm 1's mu")
-    p.add_argument("--lengthscale", type=_positive_float, default=0.2,
+    p.add_argument("--mu", type=positive_float, default=0.1, help="Algorithm 1's mu")
+    p.add_argument("--lengthscale", type=positive_float, default=0.2,
                    help="base-kernel lengthscale in unit-cube units")
     p.add_argument("--max-order", type=positive_int, default=None, help="highest order ranked (default D)")
     p.add_argument("--dims-method", choices=("forest", "permutation"), default="forest",
                    help="dimension importance: random-forest impurity (paper) or held-out permutation")
-    p.add_argument("--threshold", type=_positive_float, default=0.5,
+    p.add_argument("--threshold", type=positive_float, default=0.5,
                    help="keep dimensions whose importance share is >= threshold / D")
     p.add_argument("--seed", type=int, default=0, help="seed of the column sampling and the forest")
     p.add_argument("--profile", default="sim-planar", help="vehicle profile name or TOML path (gain names, box)")
