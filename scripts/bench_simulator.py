@@ -9,6 +9,7 @@ vectors. BLAS is pinned to one thread. Writes the section "Planar simulator (iss
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -72,7 +73,8 @@ def main() -> None:
     ep = obj.expected(np.stack([a0, prof.preset("scg"),
                                 np.array([0.2367, 0.007699, 0.8752, 3, 0.000393, 2.662, 1.167e4, 88.22, 9777])]))
     table = "\n".join(f"| {a} | {b} | {c} |" for a, b, c in rows)
-    body = f"""Machine: {machine()}. Script: `python scripts/bench_simulator.py` (BLAS pinned to 1 thread).
+    load = os.getloadavg()[0]
+    body = f"""Machine: {machine()}; 1-min load average at the end {load:.1f} (other work shared the 2 cores). Script: `python scripts/bench_simulator.py` (BLAS pinned to 1 thread).
 Goals: single episode <= 10 ms; batched <= 0.1 ms/episode over >= 1000 gain vectors.
 
 | case | time | note |

@@ -17,12 +17,20 @@ from ksbo_sim.episode import EpisodeConfig, Rollout
 
 @njit(cache=True)
 def _episode(gains, init, refs, consts, limits, dt, n_sub):  # pragma: no cover - compiled
+    N = refs.shape[0] - 1
+    states = np.empty((N + 1, 6))
+    inputs = np.empty((N, 2))
+    L, reason = _episode_into(gains, init, refs, consts, limits, dt, n_sub, states, inputs)
+    return states, inputs, L, reason
+
+
+@njit(cache=True)
+def _episode_into(gains, init, refs, consts, limits, dt, n_sub, states, inputs):  # pragma: no cover - compiled
+    """Fly one episode writing into ``states`` (N+1, 6) and ``inputs`` (N, 2); NaN after an early stop."""
     (m, iyy, d, g, kf, pscale, pconst, pwm_min, pwm_max, tmax, ilx, ilz, ilth) = consts
     (x_max, z_min, z_max, tilt_max) = limits
     Px, Ix, Dx, Pz, Iz, Dz, Pt, It, Dt = gains
     N = refs.shape[0] - 1
-    states = np.full((N + 1, 6), np.nan)
-    inputs = np.full((N, 2), np.nan)
     s = init.copy()
     states[0] = s
     ix = 0.0
@@ -74,8 +82,10 @@ def _episode(gains, init, refs, consts, limits, dt, n_sub):  # pragma: no cover 
         if not abs(x) <= x_max:
             reason = 1
         if reason:
-            return states, inputs, k + 1, reason
-    return states, inputs, N, 0
+            states[k + 2 :] = np.nan
+            inputs[k + 1 :] = np.nan
+            return k + 1, reason
+    return N, 0
 
 
 @njit(cache=True, parallel=True)
@@ -86,11 +96,7 @@ def _episodes(gains, init, refs, consts, limits, dt, n_sub):  # pragma: no cover
     L = np.empty(B, dtype=np.int64)
     reason = np.empty(B, dtype=np.int8)
     for i in prange(B):
-        s, u, n, r = _episode(gains[i], init[i], refs, consts, limits, dt, n_sub)
-        states[i] = s
-        inputs[i] = u
-        L[i] = n
-        reason[i] = r
+        L[i], reason[i] = _episode_into(gains[i], init[i], refs, consts, limits, dt, n_sub, states[i], inputs[i])
     return states, inputs, L, reason
 
 
