@@ -74,3 +74,16 @@ def test_options_defaults_and_unknown_names() -> None:
         options_for("ksbo", {"rule": "greedy"})
     with pytest.raises(InputError, match="positive"):
         options_for("ksbo", {"lengthscale": 0.0})
+
+
+def test_order_selection_respects_max_order() -> None:
+    from ksbo_mav.opt.safe_methods import select_kernel
+
+    rng = np.random.default_rng(0)
+    X = rng.random((20, 6))
+    y = np.sin(6 * X[:, 0] * X[:, 1]) + X[:, 2]
+    sel = select_kernel(X, y, options_for("ksbo", {"max_order": 2, "trials": 10}), seed=0)
+    assert sel["selected"] and set(sel["orders"]) <= {1, 2} and len(sel["orders"]) == 2
+    assert set(sel["cree"]) == {1, 2}
+    with pytest.raises(InputError, match="max_order"):
+        options_for("ksbo", {"max_order": 0})

@@ -79,8 +79,9 @@ def select_kernel(X: np.ndarray, y: np.ndarray, opts: Options, seed: int | None)
     from ksbo_mav.select import select_orders
 
     # C_ree is computed with the base lengthscale the GP will use, so the ranking is about this model.
-    sel = select_orders(X, y, orders=range(1, d + 1), trials=opts.trials, top=opts.top, seed=seed,
-                        lengthscales=opts.lengthscale)
+    top_order = d if opts.max_order is None else max(1, min(d, int(opts.max_order)))
+    sel = select_orders(X, y, orders=range(1, top_order + 1), trials=opts.trials, top=min(opts.top, top_order),
+                        seed=seed, lengthscales=opts.lengthscale)
     orders = tuple(int(r) for r in sel.orders)[: opts.top]
     out: dict[str, Any] = {
         "orders": orders,
