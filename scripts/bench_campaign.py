@@ -40,6 +40,10 @@ ALL_METHODS = ("ksbo", "standard", "safeopt", "linebo", "ucb", "ei", "random")
 VARIANTS: dict[str, tuple[str, dict]] = {
     "ksbo-234": ("ksbo", {"orders": (2, 3, 4)}),  # the paper's selected orders, no selection
     "ksbo-nosafetygp": ("ksbo", {"safety_kernel": "same"}),  # additive GP alone certifies safety
+    # Issue 4's dimension selection inside ksbo: random-forest-kept dims in the interaction orders, the dropped
+    # ones either held at their start value ("fixed") or kept only as first-order terms ("order1").
+    "ksbo-dims-fixed": ("ksbo", {"dims": "forest", "dropped": "fixed"}),
+    "ksbo-dims-order1": ("ksbo", {"dims": "forest", "dropped": "order1"}),
 }
 ALL_NAMES = ALL_METHODS + tuple(VARIANTS)
 
