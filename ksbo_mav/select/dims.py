@@ -56,13 +56,19 @@ def _forest(n_estimators: int, max_depth: int | None, seed: int | None) -> Rando
     return RandomForestRegressor(n_estimators=n_estimators, max_depth=max_depth, random_state=seed, n_jobs=1)
 
 
-def _check(X: ArrayLike, y: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def check_data(X: ArrayLike, y: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Inputs (n, D) and targets (n,) as finite float arrays, else :class:`InputError`."""
     X = np.asarray(X, dtype=float)
     y = np.asarray(y, dtype=float)
     if X.ndim != 2 or y.shape != (X.shape[0],):
         raise InputError(f"X must be (n, D) and y (n,), got {X.shape} and {y.shape}")
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))):
         raise InputError("X and y must be finite (no NaN or inf)")
+    return X, y
+
+
+def _check(X: ArrayLike, y: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    X, y = check_data(X, y)
     if X.shape[0] < 3:
         raise InputError("need at least 3 points to rank dimensions")
     return X, y

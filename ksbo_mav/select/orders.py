@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 from ksbo_mav.errors import InputError
 from ksbo_mav.gp import AdditiveKernel
 from ksbo_mav.select.cree import cree_exact, cree_nystrom
+from ksbo_mav.select.dims import check_data
 
 #: Defaults (the paper gives none): see ``select_orders``.
 DEFAULT_MU = 0.1
@@ -108,12 +109,7 @@ def select_orders(
     Returns:
         :class:`OrderSelection`.
     """
-    X = np.asarray(X, dtype=float)
-    y = np.asarray(y, dtype=float)
-    if X.ndim != 2 or y.shape != (X.shape[0],):
-        raise InputError(f"X must be (l, D) and y (l,), got {X.shape} and {y.shape}")
-    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))):
-        raise InputError("X and y must be finite (no NaN or inf)")
+    X, y = check_data(X, y)
     l, D = X.shape
     orders = tuple(int(r) for r in orders)
     if not orders or len(set(orders)) != len(orders) or min(orders) < 1 or max(orders) > D:

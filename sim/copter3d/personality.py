@@ -31,24 +31,26 @@ TUNED_FIELDS = ("ne_pos_p", "ne_vel_p", "ne_vel_i", "ne_vel_d", "d_pos_p", "d_ve
 _ARDUCOPTER_MODES = {"boot": 0, "guided": 4, "hold": 5, "land": 9}  # STABILIZE, GUIDED, LOITER, LAND
 _PX4_MODES = {"boot": 1 << 16, "guided": 6 << 16, "hold": (4 << 16) | (3 << 24), "land": (4 << 16) | (6 << 24)}
 
+_ARDUPILOT: dict[str, Any] = {
+    "autopilot": 3,
+    "vehicle_type": 2,
+    "modes": _ARDUCOPTER_MODES,
+    "do_set_mode": "custom",
+    "param_encoding": "c_cast",
+    "param_echo_index": False,
+}
+
 PERSONALITIES: dict[str, dict[str, Any]] = {
+    # The two ArduPilot personalities differ only in the PSC_* name generation (and its scaling).
     "ardupilot": {
-        "autopilot": 3,
-        "vehicle_type": 2,
+        **_ARDUPILOT,
         "modes": dict(_ARDUCOPTER_MODES),
-        "do_set_mode": "custom",
-        "param_encoding": "c_cast",
-        "param_echo_index": False,
         "param_generation": "ArduPilot master (PR #31513): PSC_NE_*, PSC_D_*",
         "gain_names": tuple(EQUIVALENT[f]["ardupilot"] for f in TUNED_FIELDS),
     },
     "ardupilot-legacy": {
-        "autopilot": 3,
-        "vehicle_type": 2,
+        **_ARDUPILOT,
         "modes": dict(_ARDUCOPTER_MODES),
-        "do_set_mode": "custom",
-        "param_encoding": "c_cast",
-        "param_echo_index": False,
         "param_generation": "ArduPilot <= 4.7.0-dev: PSC_POSXY_*, PSC_VELXY_*, PSC_POSZ_P, PSC_VELZ_*, PSC_ACCZ_*",
         "gain_names": tuple(EQUIVALENT[f]["ardupilot-legacy"] for f in TUNED_FIELDS),
     },
