@@ -10,7 +10,8 @@ import numpy as np
 from ksbo_mav.errors import InputError
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib.pyplot on the file-only Agg backend (no display needed)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -29,7 +30,7 @@ def plot_trajectories(trajectories: Sequence, labels: Sequence[str], path: str |
     path = Path(path)
     if path.suffix.lower() not in {".png", ".pdf", ".svg"}:
         raise InputError(f"plot file must end in .png, .pdf or .svg, got {path.name!r}")
-    plt = _pyplot()
+    plt = pyplot()
     fig = plt.figure(figsize=(11, 4.5), constrained_layout=True)
     grid = fig.add_gridspec(2, 2, width_ratios=[1.1, 1.4])
     ax_xz = fig.add_subplot(grid[:, 0])

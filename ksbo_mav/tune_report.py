@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.plotting import _pyplot
+from ksbo_mav.plotting import pyplot
 
 
 def _journal(d: Path) -> list[dict[str, Any]]:
@@ -40,7 +40,7 @@ def write_report(d: str | Path, profile: Any) -> dict[str, str]:
     out.mkdir(parents=True, exist_ok=True)
     entries = _journal(d)
     opt = [e for e in entries if e["kind"] == "opt"]
-    plt = _pyplot()
+    plt = pyplot()
     paths: dict[str, str] = {}
 
     P = np.array([e["P"] for e in opt])

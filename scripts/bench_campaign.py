@@ -20,9 +20,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
-import subprocess
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -30,6 +27,9 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _bench_common import machine, write_section  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "campaign"  # overridden by --out
@@ -290,11 +290,9 @@ def curves(rs: list[dict], key: str = "flights") -> tuple[np.ndarray, np.ndarray
 
 
 def figures(setting: str, runs: dict[str, list[dict]]) -> list[str]:
-    import matplotlib
+    from ksbo_mav.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     FIG.mkdir(parents=True, exist_ok=True)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.5))
     for m in ALL_NAMES:
@@ -369,11 +367,8 @@ def overhead(n_obs: int = 200, repeats: int = 5) -> dict[str, float]:
 
 
 def report(args) -> None:
-    cpu = subprocess.run("lscpu | grep 'Model name'", shell=True, capture_output=True, text=True).stdout
-    cpu = cpu.split(":", 1)[-1].strip() or platform.processor()
     lines = [SECTION, "",
-             f"Machine: {cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}, "
-             f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC. Script: `python scripts/bench_campaign.py` "
+             f"Machine: {machine()}. Script: `python scripts/bench_campaign.py` "
              "(2 worker processes, BLAS pinned to 1 thread; JSON per run in `benchmarks/campaign/`).",
              "",
              "Re-flown E[P] / J^Q = recommendation re-flown over the 8 fixed initial conditions (median [min, max] "
@@ -450,16 +445,7 @@ def report(args) -> None:
     print("\n".join(lines))
     if args.no_bench_md:
         return
-    bench = ROOT / "BENCHMARKS.md"
-    text = bench.read_text() if bench.exists() else "# Benchmarks\n"
-    if SECTION in text:
-        head, rest = text.split(SECTION, 1)
-        nxt = rest.find("\n## ")
-        tail = rest[nxt:] if nxt >= 0 else ""
-        text = head + "\n".join(lines) + tail
-    else:
-        text = text.rstrip() + "\n\n" + "\n".join(lines)
-    bench.write_text(text.rstrip() + "\n")
+    write_section(SECTION.removeprefix("## "), "\n".join(lines[2:]))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -7,16 +7,13 @@ from pathlib import Path
 import numpy as np
 
 from ksbo_mav.errors import InputError
+from ksbo_mav.plotting import pyplot
 from ksbo_mav.select.orders import OrderSelection
 
 
 def plot_cree(sel: OrderSelection, path: str | Path, title: str = "Nyström kernel selection") -> Path:
     """Write the C_ree bar chart of ``sel`` to ``path`` (PNG/PDF/SVG by suffix) and return the path."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     orders = sorted(sel.mean)
     mean = np.array([sel.mean[r] for r in orders])
     std = np.array([sel.std[r] for r in orders])
