@@ -28,7 +28,7 @@ from ksbo_mav.gp import AdditiveKernel, GaussianProcess  # noqa: E402
 from ksbo_mav.objective import SimObjective  # noqa: E402
 from ksbo_mav.profiles import load_profile  # noqa: E402
 from ksbo_mav.select import (  # noqa: E402
-    cree_exact, cree_nystrom, lhs_design, order_kernel_matrices, select_dimensions_for_orders, select_orders,
+    cree_exact, lhs_design, order_kernel_matrices, select_dimensions_for_orders, select_orders,
 )
 
 TITLE = "Kernel selection (issue 4)"

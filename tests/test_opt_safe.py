@@ -194,3 +194,41 @@ def test_no_certified_point_near_an_unsafe_observation() -> None:
         if p.kind != "fallback":
             assert np.linalg.norm(p.x - [0.5, 0.5, 0.5]) >= 0.1
         bo.observe(p.x, 0.5)
+
+
+def _prior_state(explore_from: str) -> SafeBO:
+    """x0 with a nearby prior point and a far, better prior point (a plateau the optimiser should not jump to)."""
+    spec = ModelSpec(orders=(1, 2), lengthscale=0.2, signal_std=1.0, noise_std=0.02)
+    cfg = SafeBOConfig(n_local=256, n_global=64, explore_from=explore_from, beta=2.0)
+    bo = SafeBO(SafetyModel(spec, 3, 0.0), cfg, np.ones(3, dtype=bool), np.random.default_rng(0),
+                x0=np.array([0.2, 0.2, 0.2]))
+    X = np.array([[0.22, 0.2, 0.21], [0.9, 0.9, 0.9], [0.2, 0.2, 0.2]])  # prior near, prior far, x0
+    bo.n_prior = 2
+    bo.fit(X, np.array([0.3, 0.9, 0.3]))
+    return bo
+
+
+def test_explore_from_x0_grows_the_search_region_from_the_start() -> None:
+    bo = _prior_state("x0")
+    np.testing.assert_array_equal(bo._connected(), [True, False, True])
+    far = np.array([0.9, 0.9, 0.9])
+    for _ in range(5):
+        mu_d, _, lcb_d, ucb_d = bo.bounds(bo.X)
+        assert not any(np.array_equal(a, far) for a in bo._anchors(lcb_d, ucb_d))
+        p = bo.propose()
+        assert np.linalg.norm(p.x - far) > 0.5
+        bo.observe(p.x, 0.3)
+    # Control: under "all" the far, better prior point is an anchor at once.
+    bo = _prior_state("all")
+    assert bo._connected().all()
+    mu_d, _, lcb_d, ucb_d = bo.bounds(bo.X)
+    assert any(np.array_equal(a, far) for a in bo._anchors(lcb_d, ucb_d))
+
+
+def test_exploitation_phase_takes_at_most_a_fifth_of_the_budget() -> None:
+    r = ksbo_mav.optimize(additive_bumps, X0, BOUNDS, budget=10, method="standard", seed=0, exploit_last=20,
+                          n_local=256, n_global=32)
+    kinds = [p["kind"] for p in r.info["proposals"]]
+    assert len(kinds) == 9  # x0 is the first of the 10 evaluations
+    assert kinds[-2:] == ["exploit", "exploit"]
+    assert "exploit" not in kinds[:-2]

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from typing import Any
 
 import numpy as np
 
 from ksbo_mav.errors import InputError
+from ksbo_mav.jsonio import dumps
 from ksbo_mav.profiles import Profile
 
 
@@ -52,21 +52,7 @@ def positive_float(text: str) -> float:
 
 def to_json(obj: Any) -> str:
     """JSON with NaN/inf written as null and numpy scalars/arrays converted."""
-
-    def clean(o: Any) -> Any:
-        if isinstance(o, dict):
-            return {str(k): clean(v) for k, v in o.items()}
-        if isinstance(o, (list, tuple)):
-            return [clean(v) for v in o]
-        if isinstance(o, np.ndarray):
-            return clean(o.tolist())
-        if isinstance(o, np.generic):
-            return clean(o.item())
-        if isinstance(o, float) and not math.isfinite(o):
-            return None
-        return o
-
-    return json.dumps(clean(obj), indent=2)
+    return dumps(obj, indent=2)
 
 
 def add_connection_args(p: argparse.ArgumentParser) -> None:

@@ -13,15 +13,14 @@ after the trial's record is written and kept in :attr:`MavlinkObjective.last_fli
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ksbo_mav.errors import KsboError, VehicleError
+from ksbo_mav.jsonio import dumps
 from ksbo_mav.mav.monitor import GAIN_OUTCOMES, OUTCOMES, Limits, Monitor
 from ksbo_mav.mav.params import VerifyError
 from ksbo_mav.mav.snapshot import fsync_write
@@ -195,7 +194,7 @@ class MavlinkObjective:
                 "record": str(stem.with_suffix(".json")), "wall_s": time.time() - started,
                 "vehicle_values": self.vehicle.gains.to_vehicle(x), "trajectory": info}
         doc = {"gains": x.tolist(), "names": self.profile.names, "score": score, **meta}
-        fsync_write(stem.with_suffix(".json"), json.dumps(doc, indent=1, default=_json_default))
+        fsync_write(stem.with_suffix(".json"), dumps(doc, indent=1))
         if outcome != "ok":
             self.log(f"trial {i} aborted ({OUTCOMES[outcome]}): {message}")
         return Flight(gains=x, trajectory=traj, score=score, outcome=outcome, meta=meta)
@@ -204,11 +203,3 @@ class MavlinkObjective:
 def _empty_trajectory() -> Trajectory:
     return Trajectory(t=np.zeros(0), steps=np.zeros(0, dtype=int), states=np.zeros((0, 6)), refs=np.zeros((0, 6)),
                       inputs=None, L=0, source="mavlink")
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))

@@ -13,6 +13,8 @@ from typing import Callable
 
 import numpy as np
 
+from ksbo_mav.opt.result import OptimizeResult
+
 
 class BudgetExhausted(RuntimeError):
     """A method tried to call ``fun`` more often than the budget allows (a bug in the method)."""
@@ -115,13 +117,12 @@ def build_result(
     dims: tuple[int, ...] | None = None,
     fallbacks: int = 0,
     info: dict | None = None,
-) -> "OptimizeResult":
+) -> OptimizeResult:
     """Assemble the :class:`OptimizeResult` for the recommendation ``problem.data()[0][index]``.
 
     ``fun`` is the mean of every observation at exactly that point (prior included), since safe BO may
     re-evaluate a point and a single noisy value would flatter it.
     """
-    from ksbo_mav.opt.result import OptimizeResult
 
     X, y = problem.data()
     u = X[index]

@@ -27,6 +27,10 @@ from ksbo_mav.opt.model import SafetyModel
 from ksbo_mav.opt.problem import Problem
 
 RULES = ("ucb", "safeopt")
+#: Prior points this close (unit cube) to one of the optimiser's evaluations join its search region ("x0" mode).
+CONNECT_RADIUS = 0.1
+#: The final exploitation phase takes at most 1/EXPLOIT_SHARE of the budget.
+EXPLOIT_SHARE = 5
 
 
 @dataclass(frozen=True)
@@ -58,8 +62,17 @@ class SafeBOConfig:
             certified. A Gaussian-noise GP treats one lucky episode of a bistable gain vector (0.9, where most
             initial conditions crash) as solid evidence and keeps certifying the shell around it, crash after crash;
             an unsafe outcome nearby is stronger evidence against the region than the GP admits.
-        exploit_last: the last this many evaluations of the budget maximise the posterior mean inside the safe set
-            (no exploration bonus): exploring then cannot pay off any more, it only risks unsafe queries.
+        exploit_beta: the exploitation phase maximises ``μ − exploit_beta·σ`` (0: the posterior mean); a positive
+            value keeps it nearer the data (on the quadrotor μ − σ cost 0.01 of re-flown E[P] and no tuning seed
+            needed it for safety, so the default is 0).
+        explore_from: ``"all"``: candidate clouds grow around any certified observation, plus global Sobol points;
+            ``"x0"``: only around the start and the optimiser's own evaluations (the prior informs the GP but does
+            not seed candidates), no global points. Under a safety bound β the certified boundary of a region with
+            mean μ has σ ≤ μ/β, so UCB there is at most μ(1 + β_ucb/β): a flat prior plateau at P 0.4 outbids a
+            steep slope starting at P 0.2 for the whole budget.
+        exploit_last: the last this many evaluations (at most a fifth of ``SafeBO.budget`` when that is set) maximise
+            the posterior mean inside the safe set (no exploration bonus): exploring then cannot pay off any more,
+            it only risks unsafe queries.
     """
 
     beta: float = 2.0
@@ -82,6 +95,8 @@ class SafeBOConfig:
     y_max: float | None = None
     exploit_last: int = 0
     exclusion_radius: float = 0.0
+    explore_from: str = "all"
+    exploit_beta: float = 0.0
 
 
 @dataclass
@@ -110,6 +125,8 @@ class SafeBO:
     iteration: int = field(default=0, init=False)
     fallbacks: int = field(default=0, init=False)
     remaining: int | None = field(default=None, init=False)  # evaluations left, set by the driver loop
+    n_prior: int = 0  # leading rows of the data that are prior (not evaluated by this optimiser)
+    budget: int = 0  # evaluations of the whole run (caps the exploitation phase), set by the driver
 
     def __post_init__(self) -> None:
         if self.config.rule not in RULES:
@@ -184,6 +201,7 @@ class SafeBO:
     # -- candidates ---------------------------------------------------------------------------------------------
     def _anchors(self, lcb_d: np.ndarray, ucb_d: np.ndarray) -> np.ndarray:
         ok = (lcb_d >= self.p_min) & (self.y >= self.p_min)
+        ok &= self._connected()
         idx = np.flatnonzero(ok)
         if idx.size == 0:
             return self.X[[int(np.argmax(lcb_d))]]
@@ -194,16 +212,36 @@ class SafeBO:
             best = np.concatenate([best, self.rng.choice(rest, size=min(n - best.size, rest.size), replace=False)])
         return self.X[best]
 
+    def _connected(self) -> np.ndarray:
+        """(n,) bool: observations that may anchor candidate clouds.
+
+        All of them under ``explore_from="all"``; under ``"x0"`` the optimiser's own evaluations (the start
+        first) and the prior points within ``CONNECT_RADIUS`` of one of them, so the search region grows from
+        the start and takes in prior points only once it reaches them.
+        """
+        n = self.y.size
+        if self.config.explore_from == "all" or self.n_prior == 0:
+            return np.ones(n, dtype=bool)
+        own = np.arange(n) >= self.n_prior
+        prior = self.X[: self.n_prior]
+        d2 = ((prior[:, None, :] - self.X[own][None, :, :]) ** 2).sum(-1).min(axis=1)
+        return own | np.concatenate([d2 <= CONNECT_RADIUS**2, np.zeros(n - self.n_prior, dtype=bool)])
+
     def candidates(self, anchors: np.ndarray) -> np.ndarray:
         """(m, d) candidate set: local clouds around ``anchors`` (k, d) plus global Sobol (moved dims only)."""
         c = self.config
         local = local_gaussian(anchors, c.n_local, c.local_scales, self.rng, free=self.free)
-        glob = sobol(c.n_global, self.model.dim, self.rng)
+        glob = sobol(c.n_global if c.explore_from == "all" else 0, self.model.dim, self.rng)
         C = np.vstack([local, glob])
         # Dimensions outside the search space stay at the start value (they are not in the kernel, so the model
         # could not tell a change there from no change).
         C[:, ~self.free] = self.x0[~self.free]
         return C
+
+    def _widest_safe(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Refinement score of the pure-exploration rules: posterior std (m,) and certified mask (m,) of Z (m, d)."""
+        _, s, lo, _ = self.bounds(Z)
+        return s, self.feasible(Z, lo)
 
     # -- the step -----------------------------------------------------------------------------------------------
     def propose(self) -> Proposal:
@@ -222,14 +260,16 @@ class SafeBO:
         band = c.boundary_tol * self.model.signal_std
         p_min = self.p_min
 
-        if self.remaining is not None and self.remaining <= c.exploit_last:
+        n_exploit = min(c.exploit_last, self.budget // EXPLOIT_SHARE) if self.budget > 0 else c.exploit_last
+        if self.remaining is not None and self.remaining <= n_exploit:
             kind = "exploit"
+            kb = c.exploit_beta
 
             def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-                m, _, lo, _ = self.bounds(Z)
-                return m, self.feasible(Z, lo)
+                m, s, lo, _ = self.bounds(Z)
+                return m - kb * s, self.feasible(Z, lo)
 
-            score = np.where(safe, mu, -np.inf)
+            score = np.where(safe, mu - kb * sd, -np.inf)
         elif c.rule == "ucb" and self.iteration >= c.expansion_iters:
             kind = "ucb"
 
@@ -242,11 +282,7 @@ class SafeBO:
             kind = "expand"
             boundary = safe & (lcb - p_min <= band)
             pool = boundary if boundary.any() else safe
-
-            def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-                _, s, lo, _ = self.bounds(Z)
-                return s, self.feasible(Z, lo)
-
+            evaluate = self._widest_safe
             score = np.where(pool, sd, -np.inf)
         else:
             kind = "safeopt"
@@ -255,17 +291,13 @@ class SafeBO:
             def in_pool(Z: np.ndarray, lo: np.ndarray, up: np.ndarray) -> np.ndarray:
                 return self.feasible(Z, lo) & ((up >= best_lcb) | (lo - p_min <= band))
 
-            def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            def in_pool_widest(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                 _, s, lo, up = self.bounds(Z)
                 return s, in_pool(Z, lo, up)
 
-            pool = in_pool(C, lcb, ucb)
+            pool, evaluate = in_pool(C, lcb, ucb), in_pool_widest
             if not pool.any():  # an observation's LCB beats every candidate's UCB: widest safe candidate
-                pool = safe
-
-                def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-                    _, s, lo, _ = self.bounds(Z)
-                    return s, self.feasible(Z, lo)
+                pool, evaluate = safe, self._widest_safe
 
             score = np.where(pool, sd, -np.inf)
 

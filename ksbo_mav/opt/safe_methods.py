@@ -17,6 +17,7 @@ still drives the acquisition and the recommendation, which is where kernel selec
 
 from __future__ import annotations
 
+from dataclasses import fields
 from typing import Any
 
 import numpy as np
@@ -29,24 +30,10 @@ from ksbo_mav.opt.safe_bo import SafeBO, SafeBOConfig, run_safe_bo
 
 
 def bo_config(opts: Options) -> SafeBOConfig:
-    """The :class:`SafeBOConfig` part of ``opts``."""
-    return SafeBOConfig(
-        beta=opts.beta,
-        beta_ucb=opts.beta_ucb,
-        rule=opts.rule,
-        expansion_iters=opts.expansion_iters,
-        boundary_tol=opts.boundary_tol,
-        n_global=opts.n_global,
-        n_local=opts.n_local,
-        local_scales=tuple(opts.local_scales),
-        refit_every=opts.refit_every,
-        recommend=opts.recommend,
-        cap_mean=opts.cap_mean,
-        recommend_noise=opts.recommend_noise,
-        y_max=opts.y_max,
-        exploit_last=opts.exploit_last,
-        exclusion_radius=opts.exclusion_radius,
-    )
+    """The :class:`SafeBOConfig` part of ``opts`` (fields of the same name; the rest keep their defaults)."""
+    shared = {f.name: getattr(opts, f.name) for f in fields(SafeBOConfig) if hasattr(opts, f.name)}
+    shared["local_scales"] = tuple(shared["local_scales"])
+    return SafeBOConfig(**shared)
 
 
 def model_spec(opts: Options, orders: tuple[int, ...], active_dims: tuple[int, ...] | None = None) -> ModelSpec:
@@ -126,8 +113,11 @@ def _build(
         safety = SafetyModel(sspec, d, problem.p_min, seed=seed)
     elif opts.safety_kernel not in ("same", "se"):
         raise ValueError(f"unknown safety_kernel {opts.safety_kernel!r}")
-    return SafeBO(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
-                  safety_model=safety)
+    bo = SafeBO(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
+                safety_model=safety)
+    bo.n_prior = len(problem.prior_y)
+    bo.budget = problem.budget
+    return bo
 
 
 def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | None) -> OptimizeResult:
