@@ -48,12 +48,14 @@ def run_one(seed: int, budget: int, out: Path) -> dict:
     from threadpoolctl import threadpool_limits
 
     from ksbo_mav import optimize
+    from ksbo_mav.tune import optimizer_options
 
     camp = json.loads((d / "campaign.json").read_text())
     prior = json.loads((d / "prior.json").read_text())
     with threadpool_limits(1):
         ref = optimize(SimObjective("sim-planar", seed=seed), np.array(camp["x0"]), np.array(camp["bounds"]),
-                       budget=budget, seed=seed, prior=(np.array(prior["X"]), np.array(prior["y"])))
+                       budget=budget, seed=seed, prior=(np.array(prior["X"]), np.array(prior["y"])),
+                       **optimizer_options(prior["kind"], camp["config"].get("options", {})))
     e_ref = float(sim_obj.expected(ref.x)[0])
     return {"seed": seed, "wall_s": wall, "trials": len(records), "P_base": s["baseline"]["P"],
             "P_confirm": s["best"]["P_confirm"], "E_best": e_best, "E_base": e_base, "unsafe": s["n_unsafe"],

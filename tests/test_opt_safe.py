@@ -232,3 +232,13 @@ def test_exploitation_phase_takes_at_most_a_fifth_of_the_budget() -> None:
     assert len(kinds) == 9  # x0 is the first of the 10 evaluations
     assert kinds[-2:] == ["exploit", "exploit"]
     assert "exploit" not in kinds[:-2]
+
+
+def test_prior_points_chained_to_the_start_are_connected() -> None:
+    """A resumed campaign passes its earlier trials as prior: a chain of small steps from x0 stays connected."""
+    bo = _prior_state("x0")
+    chain = np.array([[0.2 + 0.08 * k, 0.2, 0.2] for k in range(1, 6)])  # 0.08 apart, up to 0.4 from x0
+    X = np.vstack([chain, [[0.9, 0.9, 0.9]], [[0.2, 0.2, 0.2]]])
+    bo.n_prior = 6
+    bo.fit(X, np.full(7, 0.3))
+    np.testing.assert_array_equal(bo._connected(), [True] * 5 + [False, True])

@@ -216,16 +216,21 @@ class SafeBO:
         """(n,) bool: observations that may anchor candidate clouds.
 
         All of them under ``explore_from="all"``; under ``"x0"`` the optimiser's own evaluations (the start
-        first) and the prior points within ``CONNECT_RADIUS`` of one of them, so the search region grows from
-        the start and takes in prior points only once it reaches them.
+        first) and the prior points linked to them by a chain of steps of at most ``CONNECT_RADIUS``, so the
+        search region grows from the start and takes in prior points once it reaches them. (A resumed campaign
+        passes its earlier trials as prior: their chain from the start keeps them connected.)
         """
         n = self.y.size
         if self.config.explore_from == "all" or self.n_prior == 0:
             return np.ones(n, dtype=bool)
-        own = np.arange(n) >= self.n_prior
-        prior = self.X[: self.n_prior]
-        d2 = ((prior[:, None, :] - self.X[own][None, :, :]) ** 2).sum(-1).min(axis=1)
-        return own | np.concatenate([d2 <= CONNECT_RADIUS**2, np.zeros(n - self.n_prior, dtype=bool)])
+        linked = np.arange(n) >= self.n_prior
+        P = self.X[: self.n_prior]
+        while True:
+            d2 = ((P[:, None, :] - self.X[linked][None, :, :]) ** 2).sum(-1).min(axis=1)
+            new = (d2 <= CONNECT_RADIUS**2) & ~linked[: self.n_prior]
+            if not new.any():
+                return linked
+            linked[: self.n_prior] |= new
 
     def candidates(self, anchors: np.ndarray) -> np.ndarray:
         """(m, d) candidate set: local clouds around ``anchors`` (k, d) plus global Sobol (moved dims only)."""
