@@ -52,7 +52,6 @@ class CampaignConfig:
     options: dict[str, Any] = field(default_factory=dict)
 
 
-
 def optimizer_options(prior_kind: str, user: dict[str, Any]) -> dict[str, Any]:
     """Optimiser keyword options of a tuning campaign: the campaign's defaults, then the user's ``user``.
 
@@ -66,6 +65,7 @@ def optimizer_options(prior_kind: str, user: dict[str, Any]) -> dict[str, Any]:
     if prior_kind == "sim":
         base["explore_from"] = "all"
     return {**base, **user}
+
 
 class Journal:
     """Append-only JSON lines, each fsynced: a SIGKILL loses at most the trial being flown."""

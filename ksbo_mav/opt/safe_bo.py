@@ -120,13 +120,13 @@ class SafeBO:
     rng: np.random.Generator
     x0: np.ndarray | None = None  # (d,) start; fixed dimensions take its values (default: first data point)
     safety_model: SafetyModel | None = None  # optional second GP whose LCB must also clear p_min
+    n_prior: int = 0  # leading rows of the data that are prior (not evaluated by this optimiser)
+    budget: int = 0  # evaluations of the whole run (caps the exploitation phase); 0 = unknown, no cap
     X: np.ndarray = field(init=False)
     y: np.ndarray = field(init=False)
     iteration: int = field(default=0, init=False)
     fallbacks: int = field(default=0, init=False)
     remaining: int | None = field(default=None, init=False)  # evaluations left, set by the driver loop
-    n_prior: int = 0  # leading rows of the data that are prior (not evaluated by this optimiser)
-    budget: int = 0  # evaluations of the whole run (caps the exploitation phase), set by the driver
 
     def __post_init__(self) -> None:
         if self.config.rule not in RULES:

@@ -113,11 +113,8 @@ def _build(
         safety = SafetyModel(sspec, d, problem.p_min, seed=seed)
     elif opts.safety_kernel not in ("same", "se"):
         raise ValueError(f"unknown safety_kernel {opts.safety_kernel!r}")
-    bo = SafeBO(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
-                safety_model=safety)
-    bo.n_prior = len(problem.prior_y)
-    bo.budget = problem.budget
-    return bo
+    return SafeBO(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
+                  safety_model=safety, n_prior=len(problem.prior_y), budget=problem.budget)
 
 
 def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | None) -> OptimizeResult:
