@@ -33,6 +33,18 @@ def _trajectory(record: str) -> Any:
     return trajectory_from_tlog(read_tlog(Path(record).with_suffix(".tlog")))[0]
 
 
+def _finish(plt: Any, fig: Any, ax: Any, title: str, ylabel: str, path: Path) -> str:
+    """Label a per-trial axis, save the figure to ``path`` and close it; returns the path as str."""
+    ax.set_xlabel("trial")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return str(path)
+
+
 def write_report(d: str | Path, profile: Any) -> dict[str, str]:
     """Write report/convergence.png, report/safety.png, report/trajectory.png; returns their paths."""
     d = Path(d)
@@ -53,26 +65,12 @@ def write_report(d: str | Path, profile: Any) -> dict[str, str]:
         ax.plot(n, np.maximum.accumulate(P), "-", color="k", lw=1.2, label="best observed")
         ax.axhline(P[0], color="0.5", ls="--", lw=1, label="baseline trial")
     ax.axhline(0.0, color="C3", lw=0.6)
-    ax.set_xlabel("trial")
-    ax.set_ylabel("P(a)")
-    ax.set_title("Convergence")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    paths["convergence"] = str(out / "convergence.png")
-    fig.savefig(paths["convergence"], dpi=110)
-    plt.close(fig)
+    paths["convergence"] = _finish(plt, fig, ax, "Convergence", "P(a)", out / "convergence.png")
 
     fig, ax = plt.subplots(figsize=(7, 3.2), constrained_layout=True)
     ax.step(n, np.cumsum(P < 0) if len(P) else [], where="post", label="unsafe (P < 0)")
     ax.step(n, np.cumsum([e["outcome"] != "ok" for e in opt]) if opt else [], where="post", label="aborted")
-    ax.set_xlabel("trial")
-    ax.set_ylabel("cumulative count")
-    ax.set_title("Safety")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    paths["safety"] = str(out / "safety.png")
-    fig.savefig(paths["safety"], dpi=110)
-    plt.close(fig)
+    paths["safety"] = _finish(plt, fig, ax, "Safety", "cumulative count", out / "safety.png")
 
     confirm = [e for e in entries if e["kind"] == "confirm" and e["outcome"] == "ok"]
     if opt and opt[0]["outcome"] == "ok" and confirm:
