@@ -1,0 +1,206 @@
+"""Real autopilot SITLs as child processes: ArduCopter SITL and PX4 SITL (SIH), for tests and benchmarks.
+
+Finds the ``run`` scripts (``$KSBO_ARDUPILOT_SITL`` / ``$KSBO_PX4_SITL`` — a ``run`` script, or a folder holding
+one — else ``shared/sitl/{ardupilot,px4}/run`` beside or above the checkout), starts one instance on its own
+instance number (so ports never collide), waits for its first HEARTBEAT on loopback, and stops it by PID.
+
+Endpoints as the tuner sees them (``ksbo-mav tune --tcp/--udp ...``):
+
+* ArduCopter instance N: TCP server ``127.0.0.1:5760+10N`` (SERIAL0; its clock starts when a client connects),
+  further TCP ports 5762+10N and 5763+10N.
+* PX4 instance N: PX4 sends to ``127.0.0.1:14540+N`` (API link) and ``14550+N`` (GCS link); a client listens
+  (``--udp 127.0.0.1:14540+N``).
+
+This module uses only the standard library and pymavlink: ksbo_sim never imports ksbo_mav.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ENV = {"ardupilot": "KSBO_ARDUPILOT_SITL", "px4": "KSBO_PX4_SITL"}
+
+
+class SitlNotFound(RuntimeError):
+    """No SITL of that kind on this machine (the message says where we looked)."""
+
+
+def find_run_script(kind: str) -> Path:
+    """Path of the ``run`` script for ``kind`` ("ardupilot" or "px4"); :class:`SitlNotFound` with the places
+    searched otherwise."""
+    if kind not in ENV:
+        raise ValueError(f"unknown SITL kind {kind!r}; known: {', '.join(ENV)}")
+    tried: list[str] = []
+    env = os.environ.get(ENV[kind])
+    candidates: list[Path] = []
+    if env:
+        p = Path(env)
+        candidates.append(p / "run" if p.is_dir() else p)
+    here = Path(__file__).resolve()
+    for parent in list(here.parents)[:5] + list(Path.cwd().resolve().parents)[:3] + [Path.cwd().resolve()]:
+        candidates.append(parent / "shared" / "sitl" / kind / "run")
+    for c in candidates:
+        tried.append(str(c))
+        if c.is_file() and os.access(c, os.X_OK):
+            return c
+    raise SitlNotFound(f"no {kind} SITL found (set {ENV[kind]} to its run script; looked at "
+                       + ", ".join(dict.fromkeys(tried)) + ")")
+
+
+@dataclass
+class Sitl:
+    """One running SITL instance. Use as a context manager or call :meth:`stop`."""
+
+    kind: str
+    instance: int
+    speedup: float
+    workdir: Path
+    proc: subprocess.Popen
+    log_path: Path
+    _own_workdir: bool = field(default=False, repr=False)
+
+    # --- endpoints -------------------------------------------------------------------------------------------
+    @property
+    def tcp_port(self) -> int:
+        """ArduCopter SERIAL0 (the client port)."""
+        return 5760 + 10 * self.instance
+
+    @property
+    def tcp_ports(self) -> tuple[int, int, int]:
+        """ArduCopter's three TCP server ports: SERIAL0, and 5762/5763 + 10N."""
+        return 5760 + 10 * self.instance, 5762 + 10 * self.instance, 5763 + 10 * self.instance
+
+    @property
+    def udp_port(self) -> int:
+        """PX4: where the API link sends (a client listens here)."""
+        return 14540 + self.instance
+
+    @property
+    def gcs_udp_port(self) -> int:
+        """PX4: where the GCS link sends."""
+        return 14550 + self.instance
+
+    @property
+    def device(self) -> str:
+        """pymavlink device string of the primary client endpoint."""
+        if self.kind == "ardupilot":
+            return f"tcp:127.0.0.1:{self.tcp_port}"
+        return f"udpin:127.0.0.1:{self.udp_port}"
+
+    @property
+    def cli_args(self) -> list[str]:
+        """The tuner's connection option for this instance (``--tcp HOST:PORT`` / ``--udp HOST:PORT``)."""
+        if self.kind == "ardupilot":
+            return ["--tcp", f"127.0.0.1:{self.tcp_port}"]
+        return ["--udp", f"127.0.0.1:{self.udp_port}"]
+
+    @property
+    def sysid(self) -> int:
+        return 1 if self.kind == "ardupilot" else 1 + self.instance
+
+    # --- lifecycle -------------------------------------------------------------------------------------------
+    @property
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def output(self) -> str:
+        try:
+            return self.log_path.read_text(errors="replace")
+        except OSError:
+            return ""
+
+    def logs(self, suffix: str) -> list[Path]:
+        """Flight logs the autopilot wrote: ``.BIN`` (ArduCopter) or ``.ulg`` (PX4), oldest first."""
+        base = self.workdir / ("logs" if self.kind == "ardupilot" else "rootfs/log")
+        return sorted(base.rglob(f"*{suffix}"), key=lambda p: p.stat().st_mtime) if base.exists() else []
+
+    def stop(self, timeout: float = 10.0) -> int | None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        if self._own_workdir:
+            shutil.rmtree(self.workdir, ignore_errors=True)
+        return self.proc.returncode
+
+    def kill(self) -> None:
+        """SIGKILL (the process dies at once: a power cut)."""
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait(5)
+
+    def __enter__(self) -> "Sitl":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str | Path | None = None,
+               keep_params: bool = False, heartbeat_timeout: float = 60.0) -> Sitl:
+    """Start a SITL and wait until it sends a HEARTBEAT on loopback.
+
+    ArduCopter's clock only starts once a client connects to SERIAL0; the heartbeat probe connects and
+    disconnects (ArduPilot accepts the next client on the same port). :class:`SitlNotFound` if no SITL is
+    installed, RuntimeError (with the process output) if it does not come up.
+    """
+    script = find_run_script(kind)
+    own = workdir is None
+    wd = Path(tempfile.mkdtemp(prefix=f"ksbo-{kind}-sitl-")) if own else Path(workdir)
+    wd.mkdir(parents=True, exist_ok=True)
+    log_path = wd / "sitl-output.txt"
+    if kind == "ardupilot":
+        args = [str(script), "-I", str(instance), "-s", f"{speedup:g}", "-d", str(wd)] + (["-k"] if keep_params else [])
+    else:
+        args = [str(script), "-i", str(instance), "-s", f"{speedup:g}", "-w", str(wd)] + (["-k"] if keep_params else [])
+    with open(log_path, "wb") as out:
+        # Own process group: a test runner's Ctrl-C is for the runner, the fixture stops the SITL by PID.
+        proc = subprocess.Popen(args, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                start_new_session=True)
+    sitl = Sitl(kind, instance, speedup, wd, proc, log_path, own)
+    try:
+        _wait_heartbeat(sitl, heartbeat_timeout)
+    except BaseException:
+        sitl.stop()
+        raise
+    return sitl
+
+
+def _wait_heartbeat(sitl: Sitl, timeout: float) -> None:
+    os.environ.setdefault("MAVLINK20", "1")
+    from pymavlink import mavutil
+
+    deadline = time.monotonic() + timeout
+    last_err = ""
+    while time.monotonic() < deadline:
+        if not sitl.alive:
+            raise RuntimeError(f"{sitl.kind} SITL exited with {sitl.proc.returncode}: {sitl.output()[-2000:]}")
+        try:
+            conn = mavutil.mavlink_connection(sitl.device, source_system=254, source_component=190,
+                                              autoreconnect=False)
+        except OSError as exc:  # TCP port not open yet
+            last_err = str(exc)
+            time.sleep(0.3)
+            continue
+        try:
+            end = min(deadline, time.monotonic() + 5.0)
+            while time.monotonic() < end:
+                msg = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
+                if msg is not None and msg.autopilot != 8 and msg.type != 6:
+                    return
+        except OSError as exc:
+            last_err = str(exc)
+        finally:
+            conn.close()
+    raise RuntimeError(f"{sitl.kind} SITL sent no HEARTBEAT within {timeout:g} s ({last_err}); "
+                       f"output: {sitl.output()[-2000:]}")
