@@ -63,8 +63,7 @@ def _cpu_seconds(pid: int) -> float:
 def rtf_mavlink(personality: str) -> tuple[float, float, float, float]:
     """(wall s for the 40 s stream, lap-2 RMS from LOCAL_POSITION_NED, LOCAL_POSITION_NED per wall s,
     CPU s of simulator + client for the stream: the load-independent cost)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    from sim_mavlink_helpers import GUIDED, MASK_POS, running_sim  # the tests' plain pymavlink client
+    from ksbo_sim.testing import GUIDED, MASK_POS, running_sim  # plain pymavlink client of the tests
 
     fig = Figure8H()
     with running_sim("--lockstep", "--vehicle", "copter3d", "--personality", personality) as (sim, cli):

@@ -20,25 +20,29 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from _bench_common import machine, write_section  # noqa: E402
 
 
 def run_one(seed: int, budget: int, out: Path) -> dict:
-    from mav_tune_helpers import baseline, fresh_read, sim_and_endpoint
-
+    from ksbo_mav.mav.link import Endpoint
     from ksbo_mav.objective import SimObjective
+    from ksbo_mav.profiles import load_profile
     from ksbo_mav.tune import Campaign, CampaignConfig
+    from ksbo_sim.process import free_udp_port
+    from ksbo_sim.testing import SimProcess, read_params
 
     d = out / f"seed{seed}"
     shutil.rmtree(d, ignore_errors=True)
-    with sim_and_endpoint() as (sim, ep):
+    prof = load_profile("sim-planar")
+    baseline = {n: float(np.float32(x)) for n, x in zip(prof.names, prof.default)}
+    port = free_udp_port()
+    with SimProcess("--lockstep", out_port=port) as sim:
         t = time.monotonic()
-        s = Campaign(CampaignConfig(dir=str(d), budget=budget, seed=seed, prior="sim", end="hold"), ep,
-                     log=lambda m: None).run()
+        s = Campaign(CampaignConfig(dir=str(d), budget=budget, seed=seed, prior="sim", end="hold"),
+                     Endpoint("udp", "127.0.0.1", port), log=lambda m: None).run()
         wall = time.monotonic() - t
-        restored_end = fresh_read(sim) == {k: v for k, v in baseline().items()}
+        restored_end = read_params(sim, prof.names) == baseline  # independent plain-pymavlink read
     records = [json.loads(line) for line in (d / "journal.jsonl").read_text().splitlines()]
     sim_obj = SimObjective("sim-planar")
     e_best = float(sim_obj.expected(np.array(s["best"]["x"]))[0])

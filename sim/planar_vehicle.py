@@ -16,7 +16,9 @@ SCG's PID has no acceleration feed-forward.
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import replace
+from importlib import resources
 
 import numpy as np
 
@@ -24,6 +26,11 @@ from ksbo_sim.dynamics import integrate
 from ksbo_sim.episode import CEILING, OK, OUT_X, REASONS, Bounds, EpisodeConfig
 from ksbo_sim.pid import PlanarPID
 from ksbo_sim.vehicle import ParamSpec, Setpoint, VehicleState
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
 
 #: The vehicle accepts gains up to this multiple of the profile's search-box maximum: the search box is the
 #: tuner's business, the vehicle only refuses values that are plainly wrong (negative, absurdly large).
@@ -33,12 +40,15 @@ PROFILE = "sim-planar"
 
 
 def gain_specs() -> list[ParamSpec]:
-    """The 9 tuned gains as vehicle parameters, named and bounded by ``params/sim-planar.toml``."""
-    from ksbo_mav.profiles import load_profile  # the profile loader lives in the client package
+    """The 9 tuned gains as vehicle parameters, named and bounded by ``params/sim-planar.toml``.
 
-    prof = load_profile(PROFILE)
-    return [ParamSpec(g.name, g.default, g.min, g.max * GAIN_MAX_FACTOR, "REAL32", f"{g.label} [{g.unit}]")
-            for g in prof.gains]
+    The simulator reads the shipped TOML itself (the ``ksbo_params`` data package) rather than through the
+    tuner's profile loader: ``ksbo_sim`` never imports ``ksbo_mav``.
+    """
+    text = resources.files("ksbo_params").joinpath(f"{PROFILE}.toml").read_text()
+    return [ParamSpec(str(g["name"]), float(g["default"]), float(g["min"]), float(g["max"]) * GAIN_MAX_FACTOR,
+                      "REAL32", f"{g.get('label', g['name'])} [{g.get('unit', '')}]")
+            for g in tomllib.loads(text)["gains"]]
 
 
 def _setting_specs(b: Bounds) -> list[ParamSpec]:

@@ -1,5 +1,6 @@
 """Shared pieces of the MAVLink tuning-client tests: the simulator in its own process (lockstep, sending to a
-UDP port where the client listens, as a ground station), and an independent second connection for fresh reads."""
+UDP port where the client listens, as a ground station; launcher in :mod:`ksbo_sim.process`), and an
+independent second connection of the tuner's own client for fresh reads."""
 
 from __future__ import annotations
 
@@ -7,11 +8,11 @@ import os
 
 os.environ["MAVLINK20"] = "1"
 
-from contextlib import contextmanager
+from contextlib import contextmanager  # noqa: E402
 
-from ksbo_mav.cli.demo import SimProcess, free_udp_port
-from ksbo_mav.mav.link import Endpoint
-from ksbo_mav.mav.vehicle import Vehicle
+from ksbo_mav.mav.link import Endpoint  # noqa: E402
+from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
+from ksbo_sim.process import SimProcess, free_udp_port  # noqa: E402
 
 GAINS = ("POS_X_P", "POS_X_I", "POS_X_D", "POS_Z_P", "POS_Z_I", "POS_Z_D", "ATT_PIT_P", "ATT_PIT_I", "ATT_PIT_D")
 
@@ -20,7 +21,7 @@ GAINS = ("POS_X_P", "POS_X_I", "POS_X_D", "POS_Z_P", "POS_Z_I", "POS_Z_D", "ATT_
 def sim_and_endpoint(*extra: str):
     """Yield (sim process, endpoint the tuner listens on)."""
     port = free_udp_port()
-    sim = SimProcess(port, *extra)
+    sim = SimProcess("--lockstep", *extra, out_port=port)
     try:
         yield sim, Endpoint("udp", "127.0.0.1", port)
     finally:

@@ -12,7 +12,7 @@ import time
 import numpy as np
 import pytest
 
-from sim_mavlink_helpers import GUIDED, MASK_POS, running_sim
+from ksbo_sim.testing import GUIDED, MASK_POS, running_sim
 
 from ksbo_sim.copter3d import Copter3D, Figure8H, fly
 from ksbo_sim.copter3d.mission import tracking_rms

@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from sim_mavlink_helpers import CMD_SIM_SET_STATE, GUIDED, fly_figure8, running_sim
+from ksbo_sim.testing import CMD_SIM_SET_STATE, GUIDED, fly_figure8, running_sim
 
 from ksbo_mav.profiles import load_profile
 from ksbo_mav.scoring import score, score_rollout

@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from sim_mavlink_helpers import Client, SimProcess
+from ksbo_sim.testing import Client, SimProcess
 
 pytestmark = [pytest.mark.network, pytest.mark.timeout(90)]
 

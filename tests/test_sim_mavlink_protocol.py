@@ -14,7 +14,7 @@ import sys
 
 import pytest
 
-from sim_mavlink_helpers import Client, SimProcess, running_sim
+from ksbo_sim.testing import Client, SimProcess, running_sim
 
 from ksbo_mav.profiles import load_profile
 

@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import select
-import socket
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 from ksbo_mav.cli.common import positive_int
 from ksbo_mav.errors import VehicleError
+from ksbo_sim.errors import SimStartError
+from ksbo_sim.process import SimProcess, free_udp_port
+
+__all__ = ["SimProcess", "add_parser", "free_udp_port", "run"]  # SimProcess/free_udp_port: moved to ksbo_sim.process
 
 
 def add_parser(subparsers) -> None:
@@ -27,52 +27,24 @@ def add_parser(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-class SimProcess:
-    """`python -m ksbo_sim.mavlink` in lockstep, sending to ``out_port`` (where the tuner listens)."""
-
-    def __init__(self, out_port: int, *extra: str) -> None:
-        cmd = [sys.executable, "-m", "ksbo_sim.mavlink", "--udp", "127.0.0.1:0", "--out", f"127.0.0.1:{out_port}",
-               "--lockstep", *extra]
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        ready, _, _ = select.select([self.proc.stdout], [], [], 60)
-        line = self.proc.stdout.readline() if ready else ""
-        if not line.startswith("ksbo-sim ready"):
-            self.stop()
-            raise VehicleError(f"the simulator did not start: {line.strip() or self.proc.stderr.read()[-500:]}")
-        self.ready_line = line.strip()
-        self.port = int(line.split()[2].rsplit(":", 1)[1])
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-
-
 def run(args: argparse.Namespace) -> int:
     from ksbo_mav.cli.tune import Display, print_summary
     from ksbo_mav.mav.link import Endpoint
     from ksbo_mav.tune import Campaign, CampaignConfig
 
-    if args.dir:
-        d = Path(args.dir)
-    else:
-        Path("ksbo-demo-runs").mkdir(exist_ok=True)
-        d = Path(tempfile.mkdtemp(prefix=time.strftime("demo-%Y%m%d-%H%M%S-"), dir="ksbo-demo-runs"))
     port = free_udp_port()
     print(f"starting the simulator (lockstep), tuner listening on udp 127.0.0.1:{port} ...")
-    sim = SimProcess(port)
+    try:
+        sim = SimProcess("--lockstep", out_port=port)
+    except SimStartError as exc:
+        raise VehicleError(str(exc)) from None
     print(sim.ready_line)
     try:
+        if args.dir:  # created only once the simulator runs: a failed start leaves nothing behind
+            d = Path(args.dir)
+        else:
+            Path("ksbo-demo-runs").mkdir(exist_ok=True)
+            d = Path(tempfile.mkdtemp(prefix=time.strftime("demo-%Y%m%d-%H%M%S-"), dir="ksbo-demo-runs"))
         cfg = CampaignConfig(dir=str(d), budget=args.budget, seed=args.seed, method=args.method, prior="sim")
         display = Display(cfg.budget)
         camp = Campaign(cfg, Endpoint("udp", "127.0.0.1", port), log=display.log, progress=display.update)

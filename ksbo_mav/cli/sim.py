@@ -16,6 +16,11 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ksbo_mav.errors import InputError
+    from ksbo_sim.errors import SimError
     from ksbo_sim.mavlink.options import run as run_sim
 
-    return run_sim(args)
+    try:
+        return run_sim(args)
+    except SimError as exc:  # the simulator's own errors, printed as one line like every other CLI error
+        raise InputError(str(exc)) from None

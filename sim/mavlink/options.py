@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ksbo_mav.errors import InputError
+from ksbo_sim.errors import SimInputError
 
 DEFAULT_UDP = ("127.0.0.1", 14560)
 INSTANCE_PORT_STEP = 10
@@ -81,17 +81,17 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_sim.mavlink.vehicles import make_vehicle
 
     if args.personality not in PERSONALITIES:
-        raise InputError(f"unknown personality {args.personality!r}; choose from {', '.join(PERSONALITIES)}")
+        raise SimInputError(f"unknown personality {args.personality!r}; choose from {', '.join(PERSONALITIES)}")
     if not args.speedup > 0:
-        raise InputError("--speedup must be positive")
+        raise SimInputError("--speedup must be positive")
     if args.instance < 0 or not 1 <= args.sysid <= 255:
-        raise InputError("--instance must be >= 0 and --sysid in 1..255")
+        raise SimInputError("--instance must be >= 0 and --sysid in 1..255")
     kind = "tcp" if args.tcp else "udp"
     host, port = args.tcp or args.udp or DEFAULT_UDP
     if port:
         port += INSTANCE_PORT_STEP * args.instance
         if port > 65535:
-            raise InputError(f"--instance {args.instance} puts the port beyond 65535")
+            raise SimInputError(f"--instance {args.instance} puts the port beyond 65535")
     overrides = dict(args.set)
     for opt, name in (("loss_in", "SIM_PKT_LOSS_IN"), ("loss_out", "SIM_PKT_LOSS_OUT"),
                       ("delay_ms", "SIM_DELAY_MS"), ("fault_after", "SIM_FAULT_AFTER")):
@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         link = Link(kind, host, port, outs=args.out, seed=args.seed)
     except OSError as exc:
-        raise InputError(f"cannot listen on {kind} {host}:{port}: {exc.strerror or exc}") from None
+        raise SimInputError(f"cannot listen on {kind} {host}:{port}: {exc.strerror or exc}") from None
     try:
         server = Server(model, PERSONALITIES[args.personality], link, lockstep=args.lockstep, speedup=args.speedup,
                         sysid=args.sysid, seed=args.seed, params_path=args.params, product_id=product_id,
@@ -126,6 +126,6 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return run(args)
-    except InputError as exc:
+    except SimInputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ksbo_mav.errors import InputError
+from ksbo_sim.errors import SimInputError
 from ksbo_sim.vehicle import ParamSpec
 
 MAV_PARAM_TYPE_INT32 = 6
@@ -75,7 +75,7 @@ class ParamTable:
         #: Fault injection: returns a refusal reason to make a PARAM_SET fail (echo of the old value).
         self.write_fault: Callable[[str], str | None] = lambda name: None
         if self.path is not None and not self.path.parent.is_dir():
-            raise InputError(f"parameter file {self.path}: directory does not exist")
+            raise SimInputError(f"parameter file {self.path}: directory does not exist")
         if self.path is not None and self.path.exists():
             self._load(self.path)
 
@@ -146,7 +146,7 @@ class ParamTable:
         try:
             text = path.read_text()
         except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(f"cannot read parameter file {path}: {exc}") from None
+            raise SimInputError(f"cannot read parameter file {path}: {exc}") from None
         for lineno, line in enumerate(text.splitlines(), 1):
             line = line.split("#", 1)[0].strip()
             if not line:
@@ -157,7 +157,7 @@ class ParamTable:
                 if len(parts) != 2:
                     raise ValueError
             except (IndexError, ValueError):
-                raise InputError(f"{path}:{lineno}: expected 'NAME VALUE', got {line!r}") from None
+                raise SimInputError(f"{path}:{lineno}: expected 'NAME VALUE', got {line!r}") from None
             if name in self.readonly or name in self.volatile:
                 continue
             if name not in self._index:
@@ -165,7 +165,7 @@ class ParamTable:
                 continue
             reason = self.set_local(name, value, persist=False)
             if reason:
-                raise InputError(f"{path}:{lineno}: {reason}")
+                raise SimInputError(f"{path}:{lineno}: {reason}")
 
     def _save(self, path: Path) -> None:
         tmp = path.with_name(path.name + ".tmp")

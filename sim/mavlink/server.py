@@ -26,7 +26,7 @@ import time
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from ksbo_mav.errors import InputError
+from ksbo_sim.errors import SimInputError
 from ksbo_sim.estimator import Estimator
 from ksbo_sim.mavlink.commands import Commands
 from ksbo_sim.mavlink.flight import SEV_NOTICE, Flight
@@ -92,10 +92,10 @@ class Server:
         self._fault_rng = np.random.default_rng(seed)
         for name, value in (overrides or {}).items():
             if name not in self.params.values:
-                raise InputError(f"--set: unknown parameter {name}")
+                raise SimInputError(f"--set: unknown parameter {name}")
             reason = self.params.set_local(name, value, persist=False)
             if reason:
-                raise InputError(f"--set: {reason}")
+                raise SimInputError(f"--set: {reason}")
         self._apply_faults()
 
     # --- parameters ------------------------------------------------------------------------------------

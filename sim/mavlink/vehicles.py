@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import importlib
 
-from ksbo_mav.errors import InputError
+from ksbo_sim.errors import SimInputError
 from ksbo_sim.vehicle import VehicleModel
 
 #: --vehicle name -> (factory "module:function", AUTOPILOT_VERSION.product_id, personalities it supports)
@@ -29,13 +29,13 @@ def _planar(personality: str, seed: int | None) -> VehicleModel:  # noqa: ARG001
 def make_vehicle(name: str, personality: str, seed: int | None) -> tuple[VehicleModel, int]:
     """Instantiate a vehicle model; returns (model, product_id)."""
     if name not in VEHICLES:
-        raise InputError(f"unknown vehicle {name!r}; choose from {', '.join(VEHICLES)}")
+        raise SimInputError(f"unknown vehicle {name!r}; choose from {', '.join(VEHICLES)}")
     target, product_id, personalities = VEHICLES[name]
     if personality not in personalities:
-        raise InputError(f"vehicle {name!r} supports personalities {', '.join(personalities)}, not {personality!r}")
+        raise SimInputError(f"vehicle {name!r} supports personalities {', '.join(personalities)}, not {personality!r}")
     module, func = target.split(":")
     try:
         factory = getattr(importlib.import_module(module), func)
     except (ImportError, AttributeError) as exc:
-        raise InputError(f"vehicle {name!r} is not available in this installation ({exc})") from None
+        raise SimInputError(f"vehicle {name!r} is not available in this installation ({exc})") from None
     return factory(personality, seed), product_id

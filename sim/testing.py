@@ -1,5 +1,9 @@
-"""Helpers for the MAVLink simulator tests: start `python -m ksbo_sim.mavlink` in its own process and talk to
-it with a plain pymavlink connection over 127.0.0.1 (MAVLink 2)."""
+"""Helpers for tests and benchmarks of the MAVLink simulator: a plain pymavlink ground station (MAVLink 2 over
+127.0.0.1) that talks to a :class:`~ksbo_sim.process.SimProcess`, a lockstep figure-8 flight, and the ids the
+tests use. Independent of the tuner (``ksbo_sim`` never imports ``ksbo_mav``).
+
+Importing this module sets ``MAVLINK20=1`` (pymavlink reads it when ``mavutil`` is first imported).
+"""
 
 from __future__ import annotations
 
@@ -7,47 +11,22 @@ import os
 
 os.environ["MAVLINK20"] = "1"  # before pymavlink.mavutil is imported, else MAVLink 1 (fact sheet 5.2)
 
-import select
-import signal
-import socket
-import subprocess
-import sys
-import time
-from contextlib import contextmanager
+import socket  # noqa: E402
+import time  # noqa: E402
+from contextlib import contextmanager  # noqa: E402
 
-import numpy as np
-from pymavlink import mavutil
+import numpy as np  # noqa: E402
+from pymavlink import mavutil  # noqa: E402
+
+from ksbo_sim.process import SimProcess, free_udp_port  # noqa: E402
+
+__all__ = ["CMD_SIM_SET_STATE", "CMD_SIM_STEP", "CMD_SIM_RESET", "GUIDED", "LOITER", "LAND", "MASK_POS_VEL_ACC",
+           "MASK_POS", "Client", "SimProcess", "fly_figure8", "free_udp_port", "read_params", "running_sim"]
 
 CMD_SIM_SET_STATE, CMD_SIM_STEP, CMD_SIM_RESET = 31010, 31011, 31012
 GUIDED, LOITER, LAND = 4, 5, 9
 MASK_POS_VEL_ACC = 0x0C00
 MASK_POS = 0x0DF8
-
-
-class SimProcess:
-    def __init__(self, *args: str, kind: str = "udp") -> None:
-        where = [] if "--udp" in args or "--tcp" in args else [f"--{kind}", "127.0.0.1:0"]  # port 0: any free
-        cmd = [sys.executable, "-m", "ksbo_sim.mavlink", *where, *args]
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        ready, _, _ = select.select([self.proc.stdout], [], [], 30)
-        line = self.proc.stdout.readline() if ready else ""
-        if not line.startswith("ksbo-sim ready"):
-            self.proc.kill()
-            raise RuntimeError(f"simulator did not start: {line!r} {self.proc.stderr.read()}")
-        self.ready_line = line.strip()
-        addr = line.split()[2]  # udp:127.0.0.1:PORT
-        self.kind, self.host, port = addr.split(":")
-        self.port = int(port)
-
-    def stop(self, sig: int = signal.SIGTERM, timeout: float = 10.0) -> int:
-        if self.proc.poll() is None:
-            self.proc.send_signal(sig)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        return self.proc.returncode
 
 
 class Client:
@@ -168,3 +147,23 @@ def running_sim(*args: str, kind: str = "udp"):
     finally:
         cli.close()
         sim.stop()
+
+
+def read_params(sim: SimProcess, names, timeout: float = 10.0) -> dict[str, float]:
+    """Read parameters over a new, independent plain-pymavlink connection (talks first to the simulator's own
+    port, so it also works while the simulator streams to another ground station)."""
+    cli = Client(sim, source_system=250)
+    try:
+        cli.hello(timeout)
+        out = {}
+        for name in names:
+            for _ in range(8):
+                m = cli.param_read(name, timeout=1.0)
+                if m is not None:
+                    out[name] = float(m.param_value)
+                    break
+            else:
+                raise TimeoutError(f"no PARAM_VALUE for {name}")
+        return out
+    finally:
+        cli.close()

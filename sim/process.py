@@ -1,0 +1,67 @@
+"""The MAVLink vehicle simulator in its own process: ``python -m ksbo_sim.mavlink ...``, started and stopped.
+
+Used by ``ksbo-mav demo``, the tests and the benchmarks. The child prints one ready line
+(``ksbo-sim ready udp:127.0.0.1:PORT ...``) once it listens; :class:`SimProcess` waits for it and keeps the
+address. Standard library only (``ksbo_sim`` never imports ``ksbo_mav``).
+"""
+
+from __future__ import annotations
+
+import select
+import signal
+import socket
+import subprocess
+import sys
+
+from ksbo_sim.errors import SimStartError
+
+
+def free_udp_port() -> int:
+    """A UDP port on 127.0.0.1 that is free right now (for the side that listens, e.g. the tuner)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class SimProcess:
+    """``python -m ksbo_sim.mavlink *args`` in a child process, ready when the constructor returns.
+
+    Without ``--udp``/``--tcp`` in ``args`` it listens on ``kind`` 127.0.0.1 on a free port; ``out_port`` adds
+    ``--out 127.0.0.1:out_port`` (the simulator also sends there, where a ground station or the tuner listens).
+    ``kind``, ``host`` and ``port`` are the simulator's own address, from its ready line.
+    """
+
+    def __init__(self, *args: str, kind: str = "udp", out_port: int | None = None,
+                 startup_timeout: float = 60.0) -> None:
+        where = [] if "--udp" in args or "--tcp" in args else [f"--{kind}", "127.0.0.1:0"]  # port 0: any free
+        out = [] if out_port is None else ["--out", f"127.0.0.1:{out_port}"]
+        cmd = [sys.executable, "-m", "ksbo_sim.mavlink", *where, *out, *args]
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        ready, _, _ = select.select([self.proc.stdout], [], [], startup_timeout)
+        line = self.proc.stdout.readline() if ready else ""
+        if not line.startswith("ksbo-sim ready"):
+            self.stop(signal.SIGKILL)
+            err = (self.proc.stderr.read() or "").strip().splitlines()
+            why = line.strip() or (err[-1] if err else f"no ready line within {startup_timeout:g} s")
+            raise SimStartError(f"the simulator did not start: {why}")
+        self.ready_line = line.strip()
+        addr = line.split()[2]  # udp:127.0.0.1:PORT
+        self.kind, self.host, port = addr.split(":")
+        self.port = int(port)
+
+    def stop(self, sig: int = signal.SIGTERM, timeout: float = 10.0) -> int:
+        """Signal the simulator, wait up to ``timeout`` s (then kill); returns its exit code."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        return self.proc.returncode
+
+    def __enter__(self) -> "SimProcess":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
