@@ -1,8 +1,6 @@
 """Exception types that the CLI turns into one-line messages and a non-zero exit code."""
 
-from ksbo_sim.errors import SimError, SimInputError
-
-__all__ = ["InputError", "KsboError", "SimError", "SimInputError", "VehicleError"]
+from ksbo_sim.errors import SimInputError
 
 
 class KsboError(Exception):
