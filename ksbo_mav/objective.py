@@ -7,7 +7,7 @@ is the in-process planar simulator, vectorised for optimisers and benchmarks.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -15,7 +15,10 @@ import numpy as np
 from ksbo_mav.errors import InputError
 from ksbo_mav.profiles import Profile, load_profile
 from ksbo_mav.scoring import Score, ScoreConfig, score, score_rollout
-from ksbo_sim.episode import REASONS, EpisodeConfig, Rollout, fixed_initial_states, random_initial_states, simulate
+from ksbo_sim.episode import (REASONS, EpisodeConfig, MonitorConfig, Rollout, fixed_initial_states,
+                              random_initial_states, simulate)
+from ksbo_sim.monitor import Outcome
+from ksbo_sim.plants import Plant, plant as suite_plant
 
 
 @dataclass
@@ -87,18 +90,35 @@ class SimObjective:
         episode: episode settings; score: P(a) constants.
         chunk: episodes simulated per batch (bounds memory: a batch stores its full trajectories).
         backend: ``"numpy"`` (vectorised, the default) or ``"numba"`` (compiled scalar episodes on all cores;
-            faster for large batches, compiles once on first use).
+            faster for large batches, compiles once on first use; nominal plant without monitor only).
+        plant: a :class:`ksbo_sim.plants.Plant` or a suite name (``ksbo_sim.plants.PLANTS``); its ``j_hi`` scales
+            P unless ``score`` is given.
+        monitor: True (the default in-process monitor and backup), a :class:`MonitorConfig`, or False/None (the
+            paper's strict mode). With a monitor, calls return :class:`ksbo_mav.opt.outcome.Evaluation`
+            (P and the outcome complete / aborted / crashed) so the optimiser can treat aborts as censored.
     """
 
     def __init__(self, profile: Profile | str = "sim-planar", seed: int | None = None,
                  episode: EpisodeConfig | None = None, score: ScoreConfig | None = None, chunk: int = 2048,
-                 backend: str = "numpy") -> None:
+                 backend: str = "numpy", plant: Plant | str | None = None,
+                 monitor: MonitorConfig | bool | None = None) -> None:
         if backend not in ("numpy", "numba"):
             raise InputError(f"backend must be 'numpy' or 'numba', got {backend!r}")
         self.backend = backend
         self.profile = load_profile(profile) if isinstance(profile, str) else profile
-        self.episode = episode or EpisodeConfig()
-        self.score_config = score or ScoreConfig(L_expected=self.episode.steps)
+        ep = episode or EpisodeConfig()
+        if plant is not None:
+            try:
+                ep = replace(ep, plant=suite_plant(plant) if isinstance(plant, str) else plant)
+            except KeyError as exc:
+                raise InputError(str(exc.args[0])) from None
+        if monitor:
+            ep = replace(ep, monitor=monitor if isinstance(monitor, MonitorConfig) else MonitorConfig())
+        if backend == "numba" and (ep.plant is not None or ep.monitor is not None):
+            raise InputError("the numba backend flies the nominal plant without monitor only")
+        self.episode = ep
+        j_hi = ep.plant.j_hi if ep.plant is not None else ScoreConfig().j_hi
+        self.score_config = score or ScoreConfig(L_expected=self.episode.steps, j_hi=j_hi)
         self.rng = np.random.default_rng(seed)
         self.chunk = chunk
         self.n_episodes = 0
@@ -110,18 +130,42 @@ class SimObjective:
             return simulate_parallel(gains, init, config)
         return simulate(gains, init, config)
 
-    def __call__(self, x: np.ndarray) -> float:
-        return float(self.batch(np.asarray(x, dtype=float)[None])[0])
+    def __call__(self, x: np.ndarray) -> Any:
+        """One episode of gains ``x`` (d,): P (strict mode) or an ``Evaluation`` (P, outcome) with a monitor."""
+        if self.episode.monitor is None:
+            return float(self.batch(np.asarray(x, dtype=float)[None])[0])
+        return self.trial(x)
 
-    def scores(self, X: np.ndarray, init: np.ndarray) -> Score:
-        """Score of each row of X (n, d) flown from the matching row of ``init`` (n, 6)."""
+    def trial(self, x: np.ndarray) -> Any:
+        """One episode as an :class:`ksbo_mav.opt.outcome.Evaluation`: P and complete / aborted / crashed."""
+        from ksbo_mav.opt.outcome import Evaluation
+
+        X = np.atleast_2d(np.asarray(x, dtype=float))
+        init = random_initial_states(1, self.rng, self.episode)
+        sc, outcomes = self.scores(X, init, with_outcomes=True)
+        return Evaluation(float(sc.P[0]), outcomes[0])
+
+    def scores(self, X: np.ndarray, init: np.ndarray, with_outcomes: bool = False) -> Any:
+        """Score of each row of X (n, d) flown from the matching row of ``init`` (n, 6); with ``with_outcomes``
+        also the (n,) list of :class:`ksbo_sim.monitor.Outcome`."""
         X = np.atleast_2d(self.profile.check_gains(X, within_box=False))
-        parts = []
+        parts, outcomes = [], []
         for lo in range(0, X.shape[0], self.chunk):
             r = self._simulate(X[lo : lo + self.chunk], init[lo : lo + self.chunk], self.episode)
             parts.append(score_rollout(r, self.score_config))
+            outcomes += r.outcomes
         self.n_episodes += X.shape[0]
-        return _concat(parts)
+        return (_concat(parts), outcomes) if with_outcomes else _concat(parts)
+
+    def expected_outcomes(self, X: np.ndarray, inits: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Re-fly like :meth:`expected`; returns (n,) mean P and (n, 3) counts of complete / aborted / crashed."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        inits = fixed_initial_states(config=self.episode) if inits is None else np.atleast_2d(inits)
+        n, m = X.shape[0], inits.shape[0]
+        sc, outs = self.scores(np.repeat(X, m, axis=0), np.tile(inits, (n, 1)), with_outcomes=True)
+        kinds = (Outcome.COMPLETE, Outcome.ABORTED, Outcome.CRASHED)
+        counts = np.array([[sum(o is k for o in outs[i * m : (i + 1) * m]) for k in kinds] for i in range(n)])
+        return sc.P.reshape(n, m).mean(axis=1), counts
 
     def batch(self, X: np.ndarray) -> np.ndarray:
         """(n,) P of one episode per row of X (n, d), each from a fresh random initial velocity."""

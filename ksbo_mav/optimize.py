@@ -6,7 +6,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ksbo_mav.errors import InputError
+from ksbo_mav.errors import InputError, UnsafeStartError
 from ksbo_mav.opt import METHODS, run_method
 from ksbo_mav.opt.options import options_for
 from ksbo_mav.opt.problem import Problem, build_result
@@ -43,7 +43,9 @@ def optimize(
     """Maximise ``fun`` without (knowingly) evaluating it below ``p_min``, starting from the safe ``x0``.
 
     Args:
-        fun: ``fun(x: ndarray (d,)) -> float``; larger is better, values below ``p_min`` are unsafe.
+        fun: ``fun(x: ndarray (d,)) -> float``; larger is better, values below ``p_min`` are unsafe. It may also
+            return :class:`ksbo_mav.opt.outcome.Evaluation` ``(value, outcome)`` to report a trial the monitor
+            aborted (censored: the optimiser learns "aborts here", not a value) or one that crashed.
         x0: (d,) known-safe start, inside ``bounds``. It is the first evaluation (counted in ``budget``).
         bounds: (d, 2) lower/upper bounds (lower < upper); the methods work in the unit cube of this box.
         budget: number of calls of ``fun`` (≥ 1), x0's included; the prior is not counted.
@@ -54,7 +56,8 @@ def optimize(
         seed: random seed (candidates, selection); a fixed seed and a deterministic ``fun`` reproduce the run.
         p_min: safety threshold.
         callback: ``callback(i, x, y)`` after every call of ``fun``; return True to stop early.
-        check_x0: raise :class:`InputError` if ``fun(x0) < p_min`` (the run cannot be safe from there).
+        check_x0: raise :class:`ksbo_mav.errors.UnsafeStartError` (an :class:`InputError`) if ``fun(x0) < p_min``
+            or x0's trial aborted or crashed (the run cannot be safe from there).
         **options: method settings, see :class:`ksbo_mav.opt.options.Options` (e.g. ``beta=3.0``,
             ``orders=(2, 3)``, ``lengthscale=0.2``); unknown names raise :class:`InputError`.
 
@@ -63,7 +66,10 @@ def optimize(
         ``X``/``y`` (every evaluation in order), ``n_unsafe`` and, for ksbo, ``orders``/``dims``.
 
     Raises:
-        InputError: bad shapes, x0 outside bounds, budget < 1, unknown method or option, unsafe x0.
+        InputError: bad shapes, x0 outside bounds, budget < 1, unknown method or option.
+        UnsafeStartError: unsafe x0 (subclass of InputError).
+        ObjectiveError: ``fun`` returned NaN, None, an array or a non-number (names the evaluation); an exception
+            raised by ``fun`` propagates unchanged with a note naming the evaluation.
     """
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
@@ -101,9 +107,10 @@ def optimize(
         fun=fun, lower=lower, upper=upper, x0=(x - lower) / (upper - lower), budget=int(budget),
         p_min=float(p_min), prior_X=pX, prior_y=py, callback=callback,
     )
-    y0 = problem.evaluate(problem.x0)
-    if check_x0 and y0 < p_min:
-        raise InputError(f"x0 is unsafe: fun(x0) = {y0:.6g} < p_min = {p_min:.6g}")
+    ev0, y0 = problem.evaluate_full(problem.x0)
+    if check_x0 and (ev0.censored or y0 < p_min):
+        what = f"fun(x0) = {y0:.6g} < p_min = {p_min:.6g}" if not ev0.censored else f"the trial {ev0.outcome.value}"
+        raise UnsafeStartError(f"x0 is unsafe: {what}", None if ev0.value is None else ev0.value, float(p_min))
     if problem.remaining == 0:
         X, _ = problem.data()
         return build_result(problem, method, len(X) - 1, info={"options": opts})

@@ -15,7 +15,8 @@ import numpy as np
 from ksbo_sim.constants import QuadConstants
 
 
-def integrate(state: np.ndarray, thrusts: np.ndarray, c: QuadConstants, dt: float, n_sub: int) -> np.ndarray:
+def integrate(state: np.ndarray, thrusts: np.ndarray, c: QuadConstants, dt: float, n_sub: int,
+              accel: np.ndarray | None = None) -> np.ndarray:
     """Advance a batch of states by one control period ``dt`` with ``n_sub`` semi-implicit Euler sub-steps.
 
     Exactly the sub-step recursion, summed in closed form: pitch follows a quadratic in the sub-step index,
@@ -25,6 +26,7 @@ def integrate(state: np.ndarray, thrusts: np.ndarray, c: QuadConstants, dt: floa
     Args:
         state: (B, 6) states at the start of the period.
         thrusts: (B, 2) pair thrusts T1, T2 in newtons, held for the whole period.
+        accel: optional (B, 2) external acceleration (x, z) in m/s², held for the period (wind gusts).
     Returns:
         (B, 6) states at the end of the period.
     """
@@ -49,6 +51,11 @@ def integrate(state: np.ndarray, thrusts: np.ndarray, c: QuadConstants, dt: floa
     out[:, 2] = z + n * h * vz + h * h * (total * c_sums[1] - c.g * n * (n + 1) / 2.0)
     out[:, 5] = om + n * h * alpha
     out[:, 4] = th + n * h * om + h * h * alpha * n * (n + 1) / 2.0
+    if accel is not None:
+        out[:, 1] += n * h * accel[:, 0]
+        out[:, 3] += n * h * accel[:, 1]
+        out[:, 0] += h * h * accel[:, 0] * n * (n + 1) / 2.0
+        out[:, 2] += h * h * accel[:, 1] * n * (n + 1) / 2.0
     return out
 
 

@@ -7,13 +7,13 @@ the pilot) is decided by the trial runner, because the right reaction depends on
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ksbo_mav.profiles import Profile
+from ksbo_sim.monitor import MonitorLimits, check_state
 
 #: Outcome codes. "ok" = completed; the rest abort the trial and count as unsafe in the optimiser.
 OUTCOMES = {
@@ -62,27 +62,14 @@ class Monitor:
 
     def check_sample(self, lpn: Any, att: Any | None, ref_ned: np.ndarray | None) -> tuple[str, str] | None:
         """Position/attitude/tracking checks on one LOCAL_POSITION_NED (+ latest ATTITUDE, + the reference sent
-        for that instant, NED, or None during holds)."""
+        for that instant, NED, or None during holds). The checks are :func:`ksbo_sim.monitor.check_state`, the
+        same code the in-process simulator's monitor runs."""
         lim = self.limits
-        north, up = float(lpn.x), -float(lpn.z)
-        if not (math.isfinite(north) and math.isfinite(up)):
-            return "fence", "telemetry position is not finite"
-        if abs(north) > lim.x_max:
-            return "fence", f"|north| {abs(north):.2f} m > {lim.x_max:g} m"
-        if abs(float(lpn.y)) > lim.y_max:
-            return "fence", f"|east| {abs(float(lpn.y)):.2f} m > {lim.y_max:g} m"
-        if up < lim.z_min or up > lim.z_max:
-            return "fence", f"height {up:.2f} m outside [{lim.z_min:g}, {lim.z_max:g}] m"
-        if att is not None:
-            tilt = math.degrees(max(abs(float(att.pitch)), abs(float(att.roll))))
-            if tilt > lim.tilt_max_deg:
-                return "tilt", f"tilt {tilt:.0f} deg > {lim.tilt_max_deg:g} deg"
-        if ref_ned is not None:
-            err = math.sqrt((north - ref_ned[0]) ** 2 + (float(lpn.y) - ref_ned[1]) ** 2
-                            + (float(lpn.z) - ref_ned[2]) ** 2)
-            if err > lim.tracking_error_max:
-                return "track", f"tracking error {err:.2f} m > {lim.tracking_error_max:g} m"
-        return None
+        shared = MonitorLimits(x_max=lim.x_max, y_max=lim.y_max, z_min=lim.z_min, z_max=lim.z_max,
+                               tilt_max_deg=lim.tilt_max_deg, tracking_error_max=lim.tracking_error_max)
+        tilt = None if att is None else max(abs(float(att.pitch)), abs(float(att.roll)))
+        ref = None if ref_ned is None else (float(ref_ned[0]), float(ref_ned[1]), -float(ref_ned[2]))
+        return check_state(shared, float(lpn.x), float(lpn.y), -float(lpn.z), tilt, ref)
 
     def check_heartbeat(self, hb: Any) -> tuple[str, str] | None:
         """Crash / disarm / pilot mode change from the vehicle's latest HEARTBEAT."""

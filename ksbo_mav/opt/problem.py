@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from ksbo_mav.opt.outcome import Evaluation, Outcome, as_evaluation
 from ksbo_mav.opt.result import OptimizeResult
 
 
@@ -25,7 +26,8 @@ class Problem:
     """Budgeted objective in the unit cube.
 
     Attributes:
-        fun: physical-unit objective ``fun(x: (d,)) -> float``; larger is better, ``< p_min`` unsafe.
+        fun: physical-unit objective ``fun(x: (d,)) -> float | Evaluation`` (``opt.outcome``); larger is better,
+            ``< p_min`` unsafe; aborted/crashed trials are censored.
         lower, upper: (d,) box bounds (physical).
         x0: (d,) known-safe start in the unit cube.
         budget: maximum number of calls of ``fun``.
@@ -46,6 +48,7 @@ class Problem:
     callback: Callable[[int, np.ndarray, float], bool | None] | None = None
     X: list[np.ndarray] = field(default_factory=list, init=False)
     y: list[float] = field(default_factory=list, init=False)
+    outcomes: list[Outcome] = field(default_factory=list, init=False)
     seconds: list[float] = field(default_factory=list, init=False)
     stopped: bool = field(default=False, init=False)
     _t_last: float = field(default=0.0, init=False)
@@ -80,24 +83,46 @@ class Problem:
         return (np.asarray(x, dtype=float) - self.lower) / (self.upper - self.lower)
 
     def evaluate(self, u: np.ndarray) -> float:
-        """Call ``fun`` once at unit-cube point ``u`` (d,), record it and return its value."""
+        """Call ``fun`` once at unit-cube point ``u`` (d,), record it and return its value.
+
+        For methods that need a number for every trial: an aborted or crashed trial returns its reported value
+        if below ``p_min``, else ``p_min − 1`` (:meth:`evaluate_full` gives the censored view).
+        """
+        return self.evaluate_full(u)[1]
+
+    def evaluate_full(self, u: np.ndarray) -> tuple[Evaluation, float]:
+        """Call ``fun`` once at ``u`` (d,); returns the :class:`Evaluation` and the recorded value (see above)."""
         if self.budget - len(self.y) <= 0:
             raise BudgetExhausted(f"budget of {self.budget} evaluations already used")
         start = time.perf_counter()
         self.seconds.append(start - self._t_last)
         u = np.clip(np.asarray(u, dtype=float).reshape(self.dim), 0.0, 1.0)
         x = self.to_physical(u)
-        value = float(self.fun(x.copy()))
-        if not np.isfinite(value):
-            # A crash that returns NaN is still an evaluation; treat it as the worst unsafe outcome we can
-            # represent rather than poisoning the GP.
-            value = float(self.p_min - 1.0)
+        i = len(self.y)
+        try:
+            raw = self.fun(x.copy())
+        except Exception as exc:
+            exc.add_note(f"raised by fun at evaluation {i} (x = {np.array2string(x, precision=4)})")
+            raise
+        ev = as_evaluation(raw, i, x)
+        value = ev.value
+        if ev.censored:
+            value = self.p_min - 1.0 if value is None or value >= self.p_min else value
         self.X.append(u)
-        self.y.append(value)
-        if self.callback is not None and self.callback(len(self.y) - 1, x, value):
+        self.y.append(float(value))
+        self.outcomes.append(ev.outcome)
+        if self.callback is not None and self.callback(i, x, float(value)):
             self.stopped = True
         self._t_last = time.perf_counter()
-        return value
+        return ev, float(value)
+
+    def stop(self) -> None:
+        """End the run (e.g. the abort budget is spent): ``remaining`` becomes 0."""
+        self.stopped = True
+
+    def count(self, outcome: Outcome) -> int:
+        """Evaluations that ended with ``outcome``."""
+        return sum(o is outcome for o in self.outcomes)
 
     def data(self) -> tuple[np.ndarray, np.ndarray]:
         """All observations so far, prior first: (n, d) unit-cube inputs and (n,) values."""
@@ -134,6 +159,9 @@ def build_result(
         X=problem.to_physical(np.asarray(problem.X).reshape(-1, problem.dim)),
         y=y_eval,
         n_unsafe=int(np.sum(y_eval < problem.p_min)),
+        n_aborted=problem.count(Outcome.ABORTED),
+        n_crashed=problem.count(Outcome.CRASHED),
+        outcomes=tuple(o.value for o in problem.outcomes),
         method=method,
         p_min=problem.p_min,
         prior_X=problem.to_physical(problem.prior_X),

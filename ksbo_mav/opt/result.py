@@ -17,7 +17,11 @@ class OptimizeResult:
         fun: mean observed value at ``x`` (over its evaluations, prior included).
         X: (n, d) every evaluation of ``fun`` in call order (physical units); the prior is not included.
         y: (n,) the observed values of ``X``.
-        n_unsafe: number of evaluations with ``y < p_min`` (prior excluded).
+        n_unsafe: number of evaluations with ``y < p_min`` (the paper's count; aborted and crashed trials
+            included; prior excluded).
+        n_aborted: trials the monitor aborted and the backup recovered (``fun`` returned an aborted Evaluation).
+        n_crashed: trials that crashed (the backup did not recover).
+        outcomes: (n,) "complete" / "aborted" / "crashed" per evaluation.
         method: optimiser name.
         p_min: the safety threshold used.
         prior_X: (m, d) prior inputs (physical units); (0, d) without prior.
@@ -47,6 +51,9 @@ class OptimizeResult:
     seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
     fallbacks: int = 0
     info: dict[str, Any] = field(default_factory=dict)
+    n_aborted: int = 0
+    n_crashed: int = 0
+    outcomes: tuple[str, ...] = ()
 
     @property
     def nfev(self) -> int:
@@ -61,5 +68,5 @@ class OptimizeResult:
     def __repr__(self) -> str:  # short: arrays of 200 points are not useful in a REPL
         return (
             f"OptimizeResult(method={self.method!r}, fun={self.fun:.4g}, nfev={self.nfev}, "
-            f"n_unsafe={self.n_unsafe}, orders={self.orders}, x={np.array2string(self.x, precision=4)})"
+            f"n_unsafe={self.n_unsafe}, n_aborted={self.n_aborted}, n_crashed={self.n_crashed}, orders={self.orders}, x={np.array2string(self.x, precision=4)})"
         )
