@@ -2,6 +2,13 @@
 
 Profiles are TOML files in the ``ksbo_params`` data package (source directory ``params/``), found the same way
 whether the package is installed editable or not; a path to any TOML file works too.
+
+Every table is typed and checked when the file is read: ``[vehicle]`` (:data:`VEHICLE_KEYS`), ``[[gains]]``
+(:class:`GainSpec`), ``[trust_region]`` (:class:`TrustRegion`), ``[safety]`` (:class:`SafetyLimits`),
+``[mission]`` (:class:`MissionSpec`) and ``[score]`` (:class:`ScoreSpec`). A key nothing reads is an
+:class:`InputError` naming the key and the file (a typo in ``[safety]`` must not silently keep a default limit).
+To add a key, add a field to the table's dataclass (:mod:`ksbo_mav.profile_sections`): its fields are the
+allowed keys.
 """
 
 from __future__ import annotations
@@ -15,6 +22,8 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.errors import InputError
+from ksbo_mav.profile_sections import (FRAMES, GAIN_EXTRA_KEYS, MISSION_TYPES, SECTIONS, VEHICLE_KEYS,  # noqa: F401
+                                       MissionSpec, SafetyLimits, ScoreSpec, TrustRegion, section_from_table)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -44,6 +53,14 @@ class Profile:
     gains: tuple[GainSpec, ...]
     sections: dict[str, Any]
     path: str
+    safety: SafetyLimits = SafetyLimits()
+    trust_region: TrustRegion = TrustRegion()
+    mission_spec: MissionSpec = MissionSpec()
+    score_spec: ScoreSpec = ScoreSpec()
+
+    @property
+    def frame(self) -> str:
+        return str(self.vehicle.get("frame", "planar-xz"))
 
     @property
     def names(self) -> list[str]:
@@ -85,6 +102,8 @@ class Profile:
         return b[:, 0] + np.asarray(u, dtype=float) * (b[:, 1] - b[:, 0])
 
     def section(self, key: str) -> dict[str, Any]:
+        """The keys a table of the file sets, as a dict (validated; defaults are on the typed attributes
+        ``safety``, ``trust_region``, ``mission_spec``, ``score_spec``)."""
         return dict(self.sections.get(key, {}))
 
     def check_gains(self, x: np.ndarray, within_box: bool = True) -> np.ndarray:
@@ -137,22 +156,59 @@ def load_profile(name_or_path: str | Path) -> Profile:
 
 
 def _parse(data: dict[str, Any], where: str) -> Profile:
-    vehicle = data.get("vehicle", {})
+    unknown = sorted(set(data) - {"vehicle", "gains", *SECTIONS})
+    if unknown:
+        raise InputError(f"profile {where}: unknown table [{unknown[0]}] "
+                         f"(known: vehicle, gains, {', '.join(SECTIONS)})")
+    vehicle = _table(data, "vehicle", where)
     rows = data.get("gains")
-    if not vehicle.get("name") or not rows:
+    if not vehicle.get("name") or not rows or not isinstance(rows, list):
         raise InputError(f"profile {where}: needs [vehicle] name and at least one [[gains]] table")
-    gains = []
-    for row in rows:
-        try:
-            spec = GainSpec(name=str(row["name"]), label=str(row.get("label", row["name"])),
-                            unit=str(row.get("unit", "")), min=float(row["min"]), max=float(row["max"]),
-                            default=float(row["default"]),
-                            extra={k: v for k, v in row.items()
-                                   if k not in {"name", "label", "unit", "min", "max", "default"}})
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"profile {where}: gain entry {row!r} is incomplete: {exc}") from None
-        if not spec.min < spec.max or not spec.min <= spec.default <= spec.max:
-            raise InputError(f"profile {where}: gain {spec.name} needs min < max and default inside")
-        gains.append(spec)
+    _check_keys(vehicle, VEHICLE_KEYS, "[vehicle]", where)
+    if vehicle.get("frame", "planar-xz") not in FRAMES:
+        raise InputError(f"profile {where}: [vehicle] frame {vehicle['frame']!r} unknown (known: {', '.join(FRAMES)})")
+    gains = tuple(_gain(row, where) for row in rows)
+    presets = [{k for k in g.extra if k not in GAIN_EXTRA_KEYS} for g in gains]
+    for g, keys in zip(gains, presets):
+        odd = sorted(keys - set.intersection(*presets))
+        if odd:
+            raise InputError(f"profile {where}: gain {g.name}: unknown key {odd[0]!r} (a preset value must be "
+                             f"given for every gain; other keys: {', '.join(GAIN_EXTRA_KEYS)})")
+    typed = {name: section_from_table(cls, _table(data, name, where), name, where) for name, cls in SECTIONS.items()}
     sections = {k: v for k, v in data.items() if k not in {"vehicle", "gains"}}
-    return Profile(name=str(vehicle["name"]), vehicle=vehicle, gains=tuple(gains), sections=sections, path=where)
+    return Profile(name=str(vehicle["name"]), vehicle=vehicle, gains=gains, sections=sections, path=where,
+                   safety=typed["safety"], trust_region=typed["trust_region"], mission_spec=typed["mission"],
+                   score_spec=typed["score"])
+
+
+def _table(data: dict[str, Any], name: str, where: str) -> dict[str, Any]:
+    t = data.get(name, {})
+    if not isinstance(t, dict):
+        raise InputError(f"profile {where}: {name} must be a table [{name}]")
+    return t
+
+
+def _check_keys(table: dict[str, Any], known: tuple[str, ...] | list[str], what: str, where: str) -> None:
+    unknown = [k for k in table if k not in known]
+    if unknown:
+        raise InputError(f"profile {where}: unknown key {unknown[0]!r} in {what} (known: {', '.join(known)})")
+
+
+def _gain(row: Any, where: str) -> GainSpec:
+    if not isinstance(row, dict):
+        raise InputError(f"profile {where}: every gains entry must be a [[gains]] table")
+    base = {"name", "label", "unit", "min", "max", "default"}
+    try:
+        spec = GainSpec(name=str(row["name"]), label=str(row.get("label", row["name"])),
+                        unit=str(row.get("unit", "")), min=float(row["min"]), max=float(row["max"]),
+                        default=float(row["default"]), extra={k: v for k, v in row.items() if k not in base})
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"profile {where}: gain entry {row!r} is incomplete: {exc}") from None
+    if not spec.min < spec.max or not spec.min <= spec.default <= spec.max:
+        raise InputError(f"profile {where}: gain {spec.name} needs min < max and default inside")
+    for k, v in spec.extra.items():
+        if k not in GAIN_EXTRA_KEYS and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise InputError(f"profile {where}: gain {spec.name}: unknown key {k!r} "
+                             f"(known: {', '.join([*sorted(base), *GAIN_EXTRA_KEYS])}, or a numeric preset)")
+    return spec
+

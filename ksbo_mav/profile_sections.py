@@ -1,0 +1,153 @@
+"""Typed tables of a vehicle profile (``[trust_region]``, ``[safety]``, ``[mission]``, ``[score]``).
+
+Each table is a frozen dataclass whose fields are exactly the keys a profile may set: :func:`section_from_table`
+refuses any other key with an :class:`InputError` naming the key and the file, and converts the values to the
+fields' types. To add a key, add a field (with its default) to the dataclass. Re-exported by
+:mod:`ksbo_mav.profiles`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Any
+
+from ksbo_mav.errors import InputError
+
+
+#: ``[vehicle]`` keys: ``autopilot`` is the stack the vehicle must run (``ksbo_mav.mav.stacks``), ``frame`` the
+#: motion model (``planar-xz``: the built-in planar simulator, which ``evaluate``/``prior`` fly in process).
+VEHICLE_KEYS = ("name", "autopilot", "description", "frame")
+FRAMES = ("planar-xz", "quad-3d")
+#: Optional keys of a ``[[gains]]`` row besides the GainSpec fields; any other key must be a number present in
+#: every row (a named preset such as ``scg``).
+GAIN_EXTRA_KEYS = ("legacy_name", "legacy_scale", "canonical")
+MISSION_TYPES = ("figure8-xz", "figure8-ne")
+
+
+def _positive(obj: Any, *names: str) -> None:
+    for n in names:
+        v = getattr(obj, n)
+        if v is not None and not v > 0:
+            raise InputError(f"{n} must be positive, got {v!r}")
+
+
+@dataclass(frozen=True)
+class SafetyLimits:
+    """``[safety]``: abort thresholds of a flight (x north, y east, z height above home, up)."""
+
+    x_max_m: float = 2.0
+    y_max_m: float = math.inf
+    z_min_m: float = -0.05
+    z_max_m: float = 2.0
+    tilt_max_deg: float = 85.0
+    tracking_error_max_m: float = 1.0
+    heartbeat_timeout_s: float = 3.0
+
+    def __post_init__(self) -> None:
+        _positive(self, "x_max_m", "y_max_m", "tilt_max_deg", "tracking_error_max_m", "heartbeat_timeout_s")
+        if not self.z_min_m < self.z_max_m:
+            raise InputError(f"z_min_m {self.z_min_m:g} must be below z_max_m {self.z_max_m:g}")
+
+
+@dataclass(frozen=True)
+class TrustRegion:
+    """``[trust_region]``: how far a trial may move each gain from the baseline (fraction of its box width, and
+    within [baseline / max_ratio, baseline * max_ratio] when ``max_ratio`` is set)."""
+
+    max_step_fraction: float = 1.0
+    max_ratio: float | None = None
+
+    def __post_init__(self) -> None:
+        if not 0 < self.max_step_fraction <= 1:
+            raise InputError(f"max_step_fraction must be in (0, 1], got {self.max_step_fraction:g}")
+        if self.max_ratio is not None and not self.max_ratio > 1:
+            raise InputError(f"max_ratio must be > 1, got {self.max_ratio:g}")
+
+
+@dataclass(frozen=True)
+class MissionSpec:
+    """``[mission]``: the figure-8 flown in every trial (``figure8-xz``: planar x-z; ``figure8-ne``: horizontal,
+    north = scale_m sin wt, east = scale_east_m sin 2wt at center_up_m)."""
+
+    type: str = "figure8-xz"
+    scale_m: float = 0.75
+    scale_east_m: float | None = None  # None: scale_m
+    period_s: float = 6.0
+    center_up_m: float = 1.0
+    laps: int = 2
+    rate_hz: int = 50
+
+    def __post_init__(self) -> None:
+        if self.type not in MISSION_TYPES:
+            raise InputError(f"type {self.type!r} unknown (known: {', '.join(MISSION_TYPES)})")
+        _positive(self, "scale_m", "scale_east_m", "period_s", "laps", "rate_hz")
+        if 1000 % self.rate_hz:
+            raise InputError(f"rate_hz {self.rate_hz} must divide 1000")
+
+    @property
+    def scale_east(self) -> float:
+        return self.scale_m if self.scale_east_m is None else self.scale_east_m
+
+
+@dataclass(frozen=True)
+class ScoreSpec:
+    """``[score]``: overrides of the trial score. Unset keys (None) keep the scorer's defaults.
+
+    Planar task (``ksbo_mav.scoring.ScoreConfig``): ``Q`` (6 state weights), ``R`` (2 input weights), ``u_ref``,
+    ``j_hi``, ``lam``, ``floor``. 3-D copters: ``rms_max_m`` (P = 1 - RMS / rms_max_m). New score keys are new
+    fields here.
+    """
+
+    Q: tuple[float, ...] | None = None
+    R: tuple[float, ...] | None = None
+    u_ref: float | None = None
+    j_hi: float | None = None
+    lam: float | None = None
+    floor: float | None = None
+    rms_max_m: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.Q is not None and len(self.Q) != 6 or self.R is not None and len(self.R) != 2:
+            raise InputError("Q needs 6 diagonal weights and R needs 2")
+        _positive(self, "j_hi", "rms_max_m")
+
+    def given(self) -> dict[str, Any]:
+        """The keys the profile sets (lists as tuples)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) is not None}
+
+
+#: Tables of a profile besides [vehicle] and [[gains]], by table name.
+SECTIONS: dict[str, type] = {"trust_region": TrustRegion, "safety": SafetyLimits, "mission": MissionSpec,
+                             "score": ScoreSpec}
+
+
+def section_from_table(cls: type, table: dict[str, Any], name: str, where: str) -> Any:
+    """Check a TOML table against ``cls``'s fields (the allowed keys), convert each value to its field's type."""
+    known = [f.name for f in fields(cls)]
+    unknown = [k for k in table if k not in known]
+    if unknown:
+        raise InputError(f"profile {where}: unknown key {unknown[0]!r} in [{name}] (known: {', '.join(known)})")
+    kinds = {f.name: str(f.type).split(" |")[0] for f in fields(cls)}
+    values = {}
+    for key, v in table.items():
+        try:
+            values[key] = _value(kinds[key], v)
+        except TypeError as exc:
+            raise InputError(f"profile {where}: [{name}] {key} = {v!r}: expected {exc}") from None
+    try:
+        return cls(**values)
+    except InputError as exc:
+        raise InputError(f"profile {where}: [{name}] {exc}") from None
+
+
+def _value(kind: str, v: Any) -> Any:
+    """A TOML value as a field of type ``kind`` (float, int, str or tuple[float, ...]); TypeError if it is not."""
+    number = isinstance(v, (int, float)) and not isinstance(v, bool)
+    if kind == "float" and number and not math.isnan(v):
+        return float(v)
+    if kind == "int" and number and isinstance(v, int) or kind == "str" and isinstance(v, str):
+        return v
+    if kind.startswith("tuple") and isinstance(v, list):
+        return tuple(_value("float", x) for x in v)
+    raise TypeError({"float": "a number", "int": "a whole number", "str": "a string"}.get(kind, "a list of numbers"))

@@ -1,0 +1,119 @@
+"""Profiles: typed tables that refuse keys nothing reads (naming the key and the file), shipped profiles load."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from ksbo_mav.errors import InputError
+from ksbo_mav.profiles import (SECTIONS, MissionSpec, SafetyLimits, ScoreSpec, TrustRegion, available_profiles,
+                               load_profile)
+
+PARAMS = Path(__file__).resolve().parents[1] / "params"
+
+
+def _variant(tmp_path: Path, base: str, old: str, new: str) -> Path:
+    text = (PARAMS / f"{base}.toml").read_text()
+    assert old in text
+    p = tmp_path / f"{base}-variant.toml"
+    p.write_text(text.replace(old, new, 1))
+    return p
+
+
+@pytest.mark.parametrize("name", ["sim-planar", "ardupilot-copter", "px4-copter"])
+def test_shipped_profiles_load_with_typed_tables(name):
+    assert name in available_profiles()
+    p = load_profile(name)
+    assert isinstance(p.safety, SafetyLimits) and isinstance(p.trust_region, TrustRegion)
+    assert isinstance(p.mission_spec, MissionSpec) and isinstance(p.score_spec, ScoreSpec)
+    # The dict view (read by ksbo_mav.mav and tune) holds exactly what the file sets, with the typed values.
+    for table, obj in (("safety", p.safety), ("trust_region", p.trust_region), ("mission", p.mission_spec)):
+        for key, value in p.section(table).items():
+            assert getattr(obj, key) == value
+    assert p.section("nonexistent") == {}
+
+
+def test_typed_values_of_the_shipped_profiles():
+    ap, planar = load_profile("ardupilot-copter"), load_profile("sim-planar")
+    assert (ap.safety.x_max_m, ap.safety.y_max_m, ap.safety.z_min_m, ap.safety.z_max_m) == (15, 8, 4, 16)
+    assert ap.trust_region == TrustRegion(max_step_fraction=0.5, max_ratio=2.0)
+    assert ap.mission_spec.type == "figure8-ne" and ap.mission_spec.scale_east == 2.5 and ap.frame == "quad-3d"
+    assert math.isinf(planar.safety.y_max_m) and planar.trust_region.max_ratio is None
+    assert planar.mission_spec.scale_east == planar.mission_spec.scale_m == 0.75 and planar.frame == "planar-xz"
+    assert planar.score_spec.given() == {}
+
+
+def test_typed_defaults_match_what_the_client_uses():
+    from ksbo_mav.mav.mission import Mission
+    from ksbo_mav.mav.monitor import Limits
+
+    for name in ("sim-planar", "ardupilot-copter"):
+        p = load_profile(name)
+        lim, s = Limits.from_profile(p), p.safety
+        assert (lim.x_max, lim.y_max, lim.z_min, lim.z_max, lim.tilt_max_deg, lim.tracking_error_max,
+                lim.heartbeat_timeout) == (s.x_max_m, s.y_max_m, s.z_min_m, s.z_max_m, s.tilt_max_deg,
+                                           s.tracking_error_max_m, s.heartbeat_timeout_s)
+        m, ms = Mission.from_profile(p), p.mission_spec
+        assert (m.kind, m.scale, m.scale2, m.period, m.center_up, m.laps, m.rate_hz) == (
+            ms.type, ms.scale_m, ms.scale_east, ms.period_s, ms.center_up_m, ms.laps, ms.rate_hz)
+
+
+@pytest.mark.parametrize("base,old,new,words", [
+    ("sim-planar", "x_max_m = 2.0", "x_max = 2.0", ["'x_max'", "[safety]", "x_max_m"]),  # typo in [safety]
+    ("sim-planar", "max_step_fraction = 0.5", "max_step = 0.5", ["'max_step'", "[trust_region]"]),
+    ("sim-planar", "period_s = 6.0", "period = 6.0", ["'period'", "[mission]"]),
+    ("ardupilot-copter", "[score]\n", "[score]\nmetric = \"rms\"\n", ["'metric'", "[score]", "rms_max_m"]),
+    ("ardupilot-copter", 'frame = "quad-3d"', 'frame = "quad-3d"\nparam_encoding = "c_cast"',
+     ["'param_encoding'", "[vehicle]"]),
+    ("sim-planar", "[safety]", "[generations]\nA = 1\n\n[safety]", ["[generations]"]),
+    ("sim-planar", 'scg = 0.4', 'scg = 0.4\ndefualt = 0.3', ["POS_X_P", "'defualt'"]),  # one row only
+    ("sim-planar", 'scg = 0.4', 'scg = 0.4\nlegacy_nme = "X"', ["POS_X_P", "'legacy_nme'"]),
+])
+def test_unknown_keys_are_refused_naming_the_key_and_the_file(tmp_path, base, old, new, words):
+    path = _variant(tmp_path, base, old, new)
+    with pytest.raises(InputError) as exc:
+        load_profile(path)
+    msg = str(exc.value)
+    assert str(path) in msg and "\n" not in msg
+    for w in words:
+        assert w in msg
+
+
+@pytest.mark.parametrize("old,new,words", [
+    ("x_max_m = 2.0", 'x_max_m = "2"', ["x_max_m", "a number"]),
+    ("x_max_m = 2.0", "x_max_m = -1.0", ["x_max_m", "positive"]),
+    ("z_max_m = 2.0", "z_max_m = -1.0", ["z_min_m", "z_max_m"]),
+    ("max_step_fraction = 0.5", "max_step_fraction = 0.0", ["max_step_fraction"]),
+    ("laps = 2", "laps = 2.5", ["laps", "whole number"]),
+    ("rate_hz = 50", "rate_hz = 30", ["rate_hz", "1000"]),
+    ('type = "figure8-xz"', 'type = "circle"', ["circle", "figure8-ne"]),
+    ('frame = "planar-xz"', 'frame = "hexa"', ["hexa", "quad-3d"]),
+])
+def test_bad_values_are_refused(tmp_path, old, new, words):
+    path = _variant(tmp_path, "sim-planar", old, new)
+    with pytest.raises(InputError) as exc:
+        load_profile(path)
+    for w in words:
+        assert w in str(exc.value)
+
+
+def test_score_keys_are_the_fields_of_one_dataclass(tmp_path):
+    path = _variant(tmp_path, "ardupilot-copter", "[score]\n", "[score]\nrms_max_m = 2.0\n")
+    p = load_profile(path)
+    assert p.score_spec.rms_max_m == 2.0 and p.section("score") == {"rms_max_m": 2.0}
+    score = "[score]\nQ = [1, 0.1, 1, 0.1, 0.1, 0.1]\nj_hi = 5\n\n[mission]"
+    path = _variant(tmp_path, "sim-planar", "[mission]", score)
+    assert load_profile(path).score_spec.given() == {"Q": (1.0, 0.1, 1.0, 0.1, 0.1, 0.1), "j_hi": 5.0}
+    assert set(SECTIONS) == {"trust_region", "safety", "mission", "score"}
+
+
+def test_cli_reports_a_bad_profile_in_one_line(tmp_path):
+    path = _variant(tmp_path, "sim-planar", "x_max_m = 2.0", "x_maxm = 2.0")
+    out = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "evaluate", "--profile", str(path)],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and out.stdout == ""
+    assert out.stderr.count("\n") == 1 and "'x_maxm'" in out.stderr and str(path) in out.stderr
