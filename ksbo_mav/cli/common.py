@@ -29,6 +29,18 @@ def parse_gains(text: str, profile: Profile) -> np.ndarray:
     return values
 
 
+def planar_profile(name: str, command: str) -> Profile:
+    """Load a profile the in-process planar simulator can fly (``evaluate``, ``prior``), or refuse it in one line."""
+    from ksbo_mav.profiles import load_profile
+
+    profile = load_profile(name)
+    if profile.frame != "planar-xz":
+        raise InputError(f"`ksbo-mav {command}` flies the built-in planar simulator; profile {profile.name!r} is "
+                         f"for a {profile.frame} vehicle (tune it over MAVLink: `ksbo-mav sim --vehicle copter3d` "
+                         f"and `ksbo-mav tune`)")
+    return profile
+
+
 def positive_int(text: str) -> int:
     try:
         value = int(text)
@@ -64,7 +76,8 @@ def add_connection_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--serial", metavar="DEV[:BAUD]", help="serial port, e.g. /dev/ttyUSB0:57600")
     g.add_argument("--sysid", type=int, default=None, help="our MAVLink system id (default 245)")
     g.add_argument("--compid", type=int, default=None, help="our MAVLink component id (default 191)")
-    g.add_argument("--timeout", type=float, default=15.0, metavar="S", help="wait this long for a heartbeat")
+    g.add_argument("--timeout", type=positive_float, default=15.0, metavar="S",
+                   help="seconds to wait for the vehicle's first heartbeat (default: %(default)g)")
 
 
 def endpoint_from_args(args: argparse.Namespace):

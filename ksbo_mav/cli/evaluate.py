@@ -6,8 +6,7 @@ import argparse
 
 import numpy as np
 
-from ksbo_mav.cli.common import parse_gains, positive_int, to_json
-from ksbo_mav.profiles import load_profile
+from ksbo_mav.cli.common import parse_gains, planar_profile, positive_int, to_json
 
 HELP = "fly PID gains on the built-in planar simulator (figure-8) and print their score P(a)"
 
@@ -21,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--gains", default="default",
                    help="'default' (known-safe start gains), 'scg' (Safe Control Gym's gains) or 9 comma-separated "
                         "values Px,Ix,Dx,Pz,Iz,Dz,Ptheta,Itheta,Dtheta")
-    p.add_argument("--profile", default="sim-planar", help="vehicle profile name or TOML path")
+    p.add_argument("--profile", default="sim-planar", help="planar vehicle profile name or TOML path")
     p.add_argument("--episodes", type=positive_int, default=1, help="episodes to fly (scores are averaged)")
     p.add_argument("--fixed", action="store_true", help="fly the 8 fixed initial conditions instead of random ones")
     p.add_argument("--seed", type=int, default=0, help="seed of the random initial velocities")
@@ -34,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_mav.objective import SimObjective
     from ksbo_sim.episode import fixed_initial_states, random_initial_states
 
-    profile = load_profile(args.profile)
+    profile = planar_profile(args.profile, "evaluate")
     gains = profile.check_gains(parse_gains(args.gains, profile), within_box=False)
     obj = SimObjective(profile, seed=args.seed)
     rng = np.random.default_rng(args.seed)

@@ -6,7 +6,7 @@ import argparse
 
 import numpy as np
 
-from ksbo_mav.cli.common import positive_float, positive_int, to_json
+from ksbo_mav.cli.common import planar_profile, positive_float, positive_int, to_json
 from ksbo_mav.errors import InputError
 
 HELP = "draw a Latin-hypercube prior of gains, fly each on the simulator, and write gains + P to a CSV"
@@ -25,7 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the design and of the initial velocities")
     p.add_argument("--episodes", type=positive_int, default=1,
                    help="episodes per point (random initial velocities; P is their mean)")
-    p.add_argument("--profile", default="sim-planar", help="vehicle profile name or TOML path")
+    p.add_argument("--profile", default="sim-planar", help="planar vehicle profile name or TOML path")
     p.add_argument("--out", required=True, metavar="FILE.csv", help="output CSV (gain columns and P)")
     p.add_argument("--json", action="store_true", help="print a JSON summary instead of text")
     p.set_defaults(func=run)
@@ -33,11 +33,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ksbo_mav.objective import SimObjective
-    from ksbo_mav.profiles import load_profile
     from ksbo_mav.select.design import lhs_design
     from ksbo_mav.select.prior_csv import write_prior_csv
 
-    profile = load_profile(args.profile)
+    profile = planar_profile(args.profile, "prior")
     if args.design == "local" and not np.all(np.isfinite(profile.to_unit(profile.default))):
         raise InputError(f"profile {profile.name!r} has no usable default gains for a local design")
     U = lhs_design(args.n, profile.dim, design=args.design, center=profile.to_unit(profile.default),
