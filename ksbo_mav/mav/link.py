@@ -9,6 +9,8 @@ optional :class:`~ksbo_mav.mav.tlog.TlogWriter` (pymavlink's own logging is empt
 
 from __future__ import annotations
 
+import contextlib
+import io
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -96,8 +98,11 @@ class Link:
             raise InputError("--sysid and --compid must be in 1..255")
         self.endpoint = endpoint
         try:
-            self.conn = mavutil.mavlink_connection(endpoint.device, baud=endpoint.baud, source_system=sysid,
-                                                   source_component=compid, autoreconnect=False)
+            # pymavlink prints "[Errno 111] Connection refused sleeping" to stdout on every TCP retry; our one-line
+            # error below says it all.
+            with contextlib.redirect_stdout(io.StringIO()):
+                self.conn = mavutil.mavlink_connection(endpoint.device, baud=endpoint.baud, source_system=sysid,
+                                                       source_component=compid, autoreconnect=False)
         except (OSError, ValueError) as exc:
             raise VehicleError(f"cannot open {endpoint}: {exc}") from None
         # Our messages are MAVLink 2 even before the vehicle has spoken (ids > 255, e.g. ACTUATOR_OUTPUT_STATUS).
