@@ -33,3 +33,14 @@ def test_profiles_are_package_data():
     from ksbo_mav.profiles import available_profiles
 
     assert "sim-planar" in available_profiles()
+
+
+def test_dev_extra_is_lean_and_ci_installs_the_interop_tools():
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    heavy = ("mavproxy",)  # MAVProxy pulls VTK and OpenCV: ~0.9 GB for one interoperability test
+    assert not [r for r in extras["dev"] if r.lower().startswith(heavy)]
+    assert [r for r in extras["interop"] if r.lower().startswith("mavproxy")]
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert '-e ".[dev,interop]"' in ci and "\npytest\n" in ci
+    readme = (ROOT / "README.md").read_text()
+    assert 'pip install -e ".[dev]"' in readme and "\npytest\n" in readme

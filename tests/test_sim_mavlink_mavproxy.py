@@ -1,4 +1,4 @@
-"""Issue 6: MAVProxy (dev dependency) connects to the simulator, fetches all parameters (after the MAVFTP NAK
+"""Issue 6: MAVProxy (the `interop` extra) connects to the simulator, fetches all parameters (after the MAVFTP NAK
 fallback) and sets one; a plain pymavlink client then reads the new value back from the vehicle."""
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ from ksbo_sim.testing import Client, SimProcess
 pytestmark = [pytest.mark.network, pytest.mark.timeout(90)]
 
 
-@pytest.mark.skipif(shutil.which("mavproxy.py") is None, reason="MAVProxy (dev dependency) not installed")
+@pytest.mark.skipif(shutil.which("mavproxy.py") is None,
+                    reason="MAVProxy not installed (interop extra: pip install -e '.[interop]'; CI installs it)")
 def test_mavproxy_fetches_params_and_sets_one(tmp_path):
     sim = SimProcess("--lockstep")
     # Interactive mode on a pipe: --non-interactive would ignore the commands written to stdin.
