@@ -1,0 +1,155 @@
+"""ArduPilot DataFlash (``.BIN``) reader that streams: one pass over the file, only the wanted messages kept.
+
+pymavlink's ``DFReader_binary`` mmaps the file (fine) but first indexes the offset of *every* message in Python
+lists (about 36 bytes per message: ~0.5 GB for a 500 MB log of ~13 M messages) before it returns the first one.
+This reader walks the message chain once — ``0xA3 0x95 type`` then the body whose length the log's own FMT
+messages define — and copies only the bodies of the wanted types into one ``bytearray`` per type, decoded at the
+end with numpy into structured arrays. Memory is the kept messages' raw size (PSCN/PSCE/PSCD at 10 Hz: ~150 kB
+per simulated minute), never the file's.
+
+Strict framing: a message that does not start with the header is corruption (error with the byte offset); a file
+that ends inside a message is cut, reported to the caller (``truncated_at``) so it can decide whether what was cut
+matters.
+"""
+
+from __future__ import annotations
+
+import mmap
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ksbo_mav.errors import InputError
+
+HEAD1, HEAD2, FMT_TYPE, FMT_LEN = 0xA3, 0x95, 0x80, 89
+# DataFlash format characters -> numpy dtype (little-endian) and the multiplier ArduPilot applies on read.
+_DTYPE = {"a": ("<i2", 1, (32,)), "b": ("i1", 1, ()), "B": ("u1", 1, ()), "h": ("<i2", 1, ()),
+          "H": ("<u2", 1, ()), "i": ("<i4", 1, ()), "I": ("<u4", 1, ()), "f": ("<f4", 1, ()),
+          "d": ("<f8", 1, ()), "n": ("S4", 1, ()), "N": ("S16", 1, ()), "Z": ("S64", 1, ()),
+          "c": ("<i2", 0.01, ()), "C": ("<u2", 0.01, ()), "e": ("<i4", 0.01, ()), "E": ("<u4", 0.01, ()),
+          "L": ("<i4", 1e-7, ()), "M": ("u1", 1, ()), "q": ("<i8", 1, ()), "Q": ("<u8", 1, ()),
+          "g": ("<f2", 1, ())}
+
+
+@dataclass
+class DFFormat:
+    type: int
+    name: str
+    length: int  # whole message, header included
+    format: str
+    columns: list[str]
+
+    def dtype(self) -> np.dtype:
+        fields = []
+        for ch, col in zip(self.format, self.columns):
+            if ch not in _DTYPE:
+                raise InputError(f"DataFlash format {self.name}: unknown type character {ch!r}")
+            base, _, shape = _DTYPE[ch]
+            fields.append((col, base, shape) if shape else (col, base))
+        dt = np.dtype(fields)
+        if dt.itemsize != self.length - 3:
+            raise InputError(f"DataFlash format {self.name}: fields take {dt.itemsize} bytes, FMT says "
+                             f"{self.length - 3}")
+        return dt
+
+    def scale(self, col: str) -> float:
+        return _DTYPE[self.format[self.columns.index(col)]][1]
+
+
+@dataclass
+class DFContents:
+    formats: dict[str, DFFormat]
+    data: dict[str, np.ndarray]  # name -> structured array (raw units; see DFFormat.scale)
+    counts: dict[str, int]  # messages seen per name (all types)
+    size: int
+    end: int  # offset after the last complete message
+    truncated: bool  # the file ends inside a message
+    messages: int = 0
+    extra: dict = field(default_factory=dict)
+
+    def column(self, name: str, col: str) -> np.ndarray:
+        arr = self.data[name][col]
+        s = self.formats[name].scale(col)
+        return arr.astype(float) * s if s != 1 else arr.astype(float)
+
+
+def read_dataflash(path: str | Path, wanted: set[str]) -> DFContents:
+    """One streaming pass; raises :class:`InputError` on corruption (never on a cut end: see ``truncated``)."""
+    p = Path(path)
+    try:
+        fh = open(p, "rb")
+    except OSError as exc:
+        raise InputError(f"cannot read log {p}: {exc.strerror or exc}") from None
+    with fh:
+        size = fh.seek(0, 2)
+        if size == 0:
+            raise InputError(f"log {p} is empty")
+        mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+        try:
+            return _walk(mm, size, wanted, p)
+        finally:
+            mm.close()
+
+
+def _walk(mm: mmap.mmap, size: int, wanted: set[str], p: Path) -> DFContents:
+    lengths = [0] * 256
+    lengths[FMT_TYPE] = FMT_LEN
+    names: dict[int, str] = {FMT_TYPE: "FMT"}
+    formats: dict[str, DFFormat] = {"FMT": DFFormat(FMT_TYPE, "FMT", FMT_LEN, "BBnNZ",
+                                                    ["Type", "Length", "Name", "Format", "Columns"])}
+    keep: dict[int, bytearray] = {}
+    counts = [0] * 256
+    pos = 0
+    n_msgs = 0
+    truncated = False
+    while pos < size:
+        if size - pos < 3:
+            truncated = True
+            break
+        if mm[pos] != HEAD1 or mm[pos + 1] != HEAD2:
+            raise InputError(f"DataFlash log {p} is corrupted at offset {pos}: no message header "
+                             f"(0xA3 0x95) where message {n_msgs + 1} should start")
+        typ = mm[pos + 2]
+        length = lengths[typ]
+        if not length:
+            raise InputError(f"DataFlash log {p} is corrupted at offset {pos}: message type {typ} has no FMT "
+                             f"definition before it")
+        end = pos + length
+        if end > size:
+            truncated = True
+            break
+        counts[typ] += 1
+        n_msgs += 1
+        if typ == FMT_TYPE:
+            f = _parse_fmt(mm[pos + 3:end], p, pos)
+            if f.length < 3:
+                raise InputError(f"DataFlash log {p} is corrupted at offset {pos}: FMT of {f.name} with length "
+                                 f"{f.length}")
+            lengths[f.type] = f.length
+            names[f.type] = f.name
+            formats[f.name] = f
+            if f.name in wanted and f.type not in keep:
+                keep[f.type] = bytearray()
+        else:
+            buf = keep.get(typ)
+            if buf is not None:
+                buf += mm[pos + 3:end]
+        pos = end
+    data: dict[str, np.ndarray] = {}
+    for typ, buf in keep.items():
+        f = formats[names[typ]]
+        data[f.name] = np.frombuffer(bytes(buf), dtype=f.dtype()) if buf else np.zeros(0, dtype=f.dtype())
+    cnt = {names.get(t, str(t)): c for t, c in enumerate(counts) if c}
+    return DFContents(formats, data, cnt, size, pos, truncated, n_msgs)
+
+
+def _parse_fmt(body: bytes, p: Path, pos: int) -> DFFormat:
+    try:
+        typ, length = body[0], body[1]
+        name = body[2:6].rstrip(b"\0").decode("ascii")
+        fmt = body[6:22].rstrip(b"\0").decode("ascii")
+        cols = body[22:86].rstrip(b"\0").decode("ascii")
+    except (UnicodeDecodeError, IndexError):
+        raise InputError(f"DataFlash log {p} is corrupted at offset {pos}: unreadable FMT message") from None
+    return DFFormat(typ, name, length, fmt, cols.split(",") if cols else [])

@@ -1,0 +1,44 @@
+"""Which kind of flight log a file is, from its first bytes (never from its name)."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+from ksbo_mav.errors import InputError
+
+ULOG_MAGIC = b"ULog\x01\x12\x35"
+DF_HEAD = b"\xa3\x95"
+DF_FMT = 0x80
+_USEC_MIN, _USEC_MAX = 946_684_800 * 10**6, 4_102_444_800 * 10**6  # 2000..2100, as ksbo_mav.mav.tlog
+FORMATS = {"tlog": "MAVLink telemetry log (.tlog)", "bin": "ArduPilot DataFlash log (.BIN)", "ulg": "PX4 ULog (.ulg)"}
+
+
+def detect_format(path: str | Path) -> str:
+    """``"tlog"``, ``"bin"`` or ``"ulg"``; :class:`InputError` (one line) for a missing, empty or foreign file."""
+    p = Path(path)
+    try:
+        with open(p, "rb") as fh:
+            head = fh.read(64)
+    except OSError as exc:
+        raise InputError(f"cannot read log {p}: {exc.strerror or exc}") from None
+    if not head:
+        raise InputError(f"log {p} is empty")
+    if head.startswith(ULOG_MAGIC[:4]):
+        if len(head) < 16:
+            raise InputError(f"PX4 ULog {p} is truncated: {len(head)}-byte file, the header alone is 16 bytes")
+        if head[:7] != ULOG_MAGIC:
+            raise InputError(f"PX4 ULog {p} is corrupted: bad header magic")
+        return "ulg"
+    if head.startswith(DF_HEAD):
+        if len(head) < 3 or head[2] != DF_FMT:
+            raise InputError(f"DataFlash log {p} is corrupted: it must start with a FMT message")
+        return "bin"
+    if len(head) >= 10:
+        (stamp,) = struct.unpack_from(">Q", head, 0)
+        if _USEC_MIN <= (stamp & ~3) <= _USEC_MAX and head[8] in (0xFE, 0xFD):
+            return "tlog"
+    elif len(head) < 10:
+        raise InputError(f"log {p} is truncated or not a flight log: only {len(head)} byte(s)")
+    raise InputError(f"{p} is corrupted or not a flight log: its first bytes are neither a MAVLink .tlog record, "
+                     f"an ArduPilot DataFlash .BIN header nor a PX4 ULog header")

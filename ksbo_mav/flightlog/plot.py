@@ -1,0 +1,114 @@
+"""Figures of a scored log segment (trajectory vs target, error over time) and of two logs compared."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ksbo_mav.errors import InputError
+from ksbo_mav.flightlog.analysis import reference
+from ksbo_mav.flightlog.model import FlightLog
+
+
+def _check(path: str | Path) -> Path:
+    path = Path(path)
+    if path.suffix.lower() not in {".png", ".pdf", ".svg"}:
+        raise InputError(f"plot file must end in .png, .pdf or .svg, got {path.name!r}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _series(log: FlightLog, seg: dict[str, Any], mission) -> dict[str, Any]:
+    """Times (s from the segment's or figure-8's start), actual, target, reference and errors of one segment."""
+    f8 = seg.get("figure8")
+    a, b = (f8["t0_s"], f8["t_end_s"]) if f8 else (seg["t_start_s"], seg["t_end_s"])
+    act = log.actual.window(a, b)
+    tgt = log.target.window(a, b)
+    out = {"t0": a, "act": act, "tgt": tgt, "t_act": act.t - a, "t_tgt": tgt.t - a, "f8": f8}
+    e = log.actual.at(tgt.t) - tgt.pos
+    out["e_tgt_h"], out["e_tgt_v"] = np.hypot(e[:, 0], e[:, 1]), e[:, 2]
+    if f8:
+        ref, _ = reference(mission, act.t - a, np.array(f8["offset_m"]))
+        out["ref"] = ref
+        er = act.pos - ref
+        out["e_ref_h"], out["e_ref_v"] = np.hypot(er[:, 0], er[:, 1]), er[:, 2]
+    return out
+
+
+def plot_segment(log: FlightLog, seg: dict[str, Any], mission, path: str | Path, title: str = "") -> Path:
+    from ksbo_mav.plotting import pyplot
+
+    path = _check(path)
+    s = _series(log, seg, mission)
+    plt = pyplot()
+    fig = plt.figure(figsize=(12, 5.5), constrained_layout=True)
+    grid = fig.add_gridspec(2, 2, width_ratios=[1.0, 1.5])
+    ax_ne = fig.add_subplot(grid[:, 0])
+    ax_h, ax_v = fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, 1])
+    if "ref" in s:
+        ax_ne.plot(s["ref"][:, 1], s["ref"][:, 0], "k--", lw=1.0, label="figure-8 reference")
+    ax_ne.plot(s["tgt"].pos[:, 1], s["tgt"].pos[:, 0], color="tab:orange", lw=1.0, label=f"target: {log.target.label}")
+    ax_ne.plot(s["act"].pos[:, 1], s["act"].pos[:, 0], color="tab:blue", lw=1.0, label=f"flown: {log.actual.label}")
+    ax_ne.set_xlabel("east (m)")
+    ax_ne.set_ylabel("north (m)")
+    ax_ne.set_aspect("equal", adjustable="datalim")
+    ax_ne.legend(loc="upper right", fontsize=7)
+    ax_ne.grid(alpha=0.3)
+    ax_h.plot(s["t_tgt"], s["e_tgt_h"], color="tab:orange", lw=0.9, label="vs autopilot target")
+    ax_v.plot(s["t_tgt"], s["e_tgt_v"], color="tab:orange", lw=0.9, label="vs autopilot target")
+    if "ref" in s:
+        ax_h.plot(s["t_act"], s["e_ref_h"], color="k", lw=0.9, ls="--", label="vs analytic reference")
+        ax_v.plot(s["t_act"], s["e_ref_v"], color="k", lw=0.9, ls="--", label="vs analytic reference")
+        T = s["f8"]["mission"]["period_s"]
+        for k in range(1, int(s["f8"]["laps_flown"]) + 1):
+            for ax in (ax_h, ax_v):
+                ax.axvline(k * T, color="0.6", lw=0.8)
+    ax_h.set_ylabel("horizontal error (m)")
+    ax_v.set_ylabel("vertical error, down (m)")
+    ax_v.set_xlabel("time (s) from the " + ("figure-8 start (lines: laps)" if s["f8"] else "segment start"))
+    for ax in (ax_h, ax_v):
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=7)
+    fig.suptitle(title or f"{Path(log.path).name}: segment {seg['segment']} ({seg['mode']})")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_compare(runs: list[tuple[str, FlightLog, dict[str, Any]]], mission, path: str | Path) -> Path:
+    """Two (or more) logs' segments: top view and horizontal error over time, one colour per log."""
+    from ksbo_mav.plotting import pyplot
+
+    path = _check(path)
+    plt = pyplot()
+    fig = plt.figure(figsize=(12, 5), constrained_layout=True)
+    grid = fig.add_gridspec(2, 2, width_ratios=[1.0, 1.5])
+    ax_ne = fig.add_subplot(grid[:, 0])
+    ax_h, ax_v = fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, 1])
+    drew_ref = False
+    for label, log, seg in runs:
+        s = _series(log, seg, mission)
+        if "ref" in s and not drew_ref:
+            ax_ne.plot(s["ref"][:, 1], s["ref"][:, 0], "k--", lw=1.0, label="figure-8 reference")
+            drew_ref = True
+        (line,) = ax_ne.plot(s["act"].pos[:, 1], s["act"].pos[:, 0], lw=1.0, label=label)
+        key = "e_ref" if "ref" in s else "e_tgt"
+        tt = s["t_act"] if "ref" in s else s["t_tgt"]
+        ax_h.plot(tt, s[key + "_h"], lw=0.9, color=line.get_color())
+        ax_v.plot(tt, s[key + "_v"], lw=0.9, color=line.get_color())
+    ax_ne.set_xlabel("east (m)")
+    ax_ne.set_ylabel("north (m)")
+    ax_ne.set_aspect("equal", adjustable="datalim")
+    ax_ne.legend(loc="upper right", fontsize=7)
+    ax_ne.grid(alpha=0.3)
+    ax_h.set_ylabel("horizontal error (m)")
+    ax_v.set_ylabel("vertical error (m)")
+    ax_v.set_xlabel("time (s) from the figure-8 (or segment) start")
+    for ax in (ax_h, ax_v):
+        ax.grid(alpha=0.3)
+    fig.suptitle("compare: " + "  vs  ".join(label for label, _, _ in runs))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
