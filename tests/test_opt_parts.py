@@ -77,13 +77,15 @@ def test_options_defaults_and_unknown_names() -> None:
 
 
 def test_order_selection_respects_max_order() -> None:
-    from ksbo_mav.opt.safe_methods import select_kernel
+    from ksbo_mav.opt.selection import KernelSelection, select_kernel
 
     rng = np.random.default_rng(0)
     X = rng.random((20, 6))
     y = np.sin(6 * X[:, 0] * X[:, 1]) + X[:, 2]
-    sel = select_kernel(X, y, options_for("ksbo", {"max_order": 2, "trials": 10}), seed=0)
-    assert sel["selected"] and set(sel["orders"]) <= {1, 2} and len(sel["orders"]) == 2
-    assert set(sel["cree"]) == {1, 2}
+    opts = options_for("ksbo", {"max_order": 2, "trials": 10})
+    sel = select_kernel(X, y, opts, opts.lengthscale, seed=0)
+    assert isinstance(sel, KernelSelection) and sel.method == "cree"
+    assert sel.selected and set(sel.orders) <= {1, 2} and len(sel.orders) == 2
+    assert set(sel.cree) == {1, 2}
     with pytest.raises(InputError, match="max_order"):
         options_for("ksbo", {"max_order": 0})

@@ -6,18 +6,19 @@ Use :func:`ksbo_mav.optimize`; this package holds the methods. ``METHODS`` lists
 from __future__ import annotations
 
 from ksbo_mav.opt.options import Options, options_for
+from ksbo_mav.opt.outcome import Evaluation, Outcome
 from ksbo_mav.opt.problem import Problem
 from ksbo_mav.opt.result import OptimizeResult
 
-METHODS: tuple[str, ...] = ("ksbo", "standard", "safeopt", "linebo", "ucb", "ei", "random")
+METHODS: tuple[str, ...] = ("ksbo", "ksbo-adaptive", "standard", "safeopt", "linebo", "ucb", "ei", "random")
 
 #: Methods that never query a point their GP does not certify safe (apart from fallbacks to safe observations).
-SAFE_METHODS: tuple[str, ...] = ("ksbo", "standard", "safeopt", "linebo")
+SAFE_METHODS: tuple[str, ...] = ("ksbo", "ksbo-adaptive", "standard", "safeopt", "linebo")
 
 
 def run_method(method: str, problem: Problem, opts: Options, seed: int | None) -> OptimizeResult:
     """Spend ``problem``'s remaining budget with ``method`` and return its result (x0 already evaluated)."""
-    if method in ("ksbo", "standard", "safeopt"):
+    if method in ("ksbo", "ksbo-adaptive", "standard", "safeopt"):
         from ksbo_mav.opt.safe_methods import run_safe_method
 
         return run_safe_method(problem, method, opts, seed)
@@ -36,4 +37,4 @@ def run_method(method: str, problem: Problem, opts: Options, seed: int | None) -
     raise ValueError(f"unknown method {method!r}")
 
 
-__all__ = ["METHODS", "SAFE_METHODS", "OptimizeResult", "Options", "options_for", "run_method"]
+__all__ = ["Evaluation", "Outcome", "METHODS", "SAFE_METHODS", "OptimizeResult", "Options", "options_for", "run_method"]

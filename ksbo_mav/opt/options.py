@@ -1,4 +1,5 @@
-"""Method options: one validated dataclass, per-method defaults, keyword overrides from :func:`optimize`."""
+"""Method options: one validated dataclass composed of the typed configs, per-method defaults, keyword overrides
+from :func:`optimize`."""
 
 from __future__ import annotations
 
@@ -6,85 +7,19 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Mapping
 
 from ksbo_mav.errors import InputError
+from ksbo_mav.opt.config import (AdaptiveConfig, BaselineConfig, ModelConfig, SafeBOConfig, SelectionConfig,
+                                 part)
 
 
 @dataclass(frozen=True)
-class Options:
-    """Every tunable of the optimisers (unit-cube units). Each method reads the fields it needs.
-
-    Safe GP methods (ksbo, standard, safeopt, linebo):
-        beta: safety multiplier (certified safe ⇔ μ − β σ ≥ p_min); beta_ucb: acquisition multiplier (None = beta).
-        rule: "ucb" (expansion for ``expansion_iters`` BO iterations, then safe UCB) or "safeopt".
-        boundary_tol: boundary band in units of the prior std.
-        n_global, n_local, local_scales: candidates per iteration (Sobol; Gaussian clouds around safe points).
-        refit_every: full GP refit every k iterations (0: rank-one updates only); optimize_hypers: ML-II on refits.
-        recommend: "mean" or "lcb" of the smoothing GP among evaluated certified-safe points.
-        recommend_noise: noise std of that smoothing GP as a fraction of the prior std (None: the safety GP).
-        cap_mean: the safety bound uses min(μ, max observed y).
-        y_max: known upper bound of fun (clips posterior means; P ≤ 1 on the quadrotor).
-        exclusion_radius: no certified point within this distance (unit cube) of an unsafe observation.
-        exploit_last: final evaluations (at most a fifth of the budget) that maximise the posterior mean inside
-        the safe set, or ``μ − exploit_beta·σ`` (exploit_beta > 0: stay nearer the data).
-        explore_from: "x0" (candidates grow from the start and the optimiser's own evaluations; prior points join
-        once reached) or "all" (around any certified observation, plus global Sobol points).
-        (Details of these in opt.safe_bo.SafeBOConfig.)
-        lengthscale, signal_std, signal_scale, noise_std, noise_ratio: GP prior (see opt.model.ModelSpec).
-        safety_kernel: "same" (the method's GP certifies safety) or "se" (additionally an SE-ARD GP with
-        ``safety_lengthscale`` must certify it: LCB = min of both).
-    Kernel selection (ksbo):
-        orders: fixed orders (skips selection); top: how many orders to keep; trials: Algorithm-1 repetitions;
-        max_order: highest candidate order of the selection (None = d);
-        min_select: fewest observations for selection (fewer → default_orders); dims: "all", "forest" or
-        "permutation" (dimension selection per kept order); select_at: BO iteration after which the kernel is
-        selected again on all data (0 = never); dropped: what happens to unselected dimensions —
-        "fixed" (held at x0, ignored by the kernel) or "order1" (kept in an order-1 term, still optimised).
-    LineBO: line_budget (max queries per line), directions ("random" or "coordinate"), line_points (grid size).
-    Unconstrained (ucb, ei): unconstrained_refit (ML-II every k iterations), xi (EI margin).
+class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, SafeBOConfig):
+    """Every tunable of the optimisers (unit-cube units): the composition of the typed configs of
+    :mod:`ksbo_mav.opt.config`, which hold each field's one default and its documentation —
+    :class:`SafeBOConfig` (β, rule, candidates, recommendation, exploitation), :class:`AdaptiveConfig`
+    (learned safety scale, trust region, ``max_aborts``, re-flown recommendation, order re-selection),
+    :class:`ModelConfig` (GP priors, safety GP), :class:`SelectionConfig` (ksbo's kernel selection) and
+    :class:`BaselineConfig` (LineBO, unconstrained BO). ``part(opts, SafeBOConfig)`` extracts one of them.
     """
-
-    beta: float = 4.0
-    beta_ucb: float | None = 2.0
-    rule: str = "ucb"
-    expansion_iters: int = 10
-    boundary_tol: float = 0.1
-    n_global: int = 256
-    n_local: int = 1536
-    local_scales: tuple[float, ...] = (0.02, 0.05, 0.1, 0.2)
-    refit_every: int = 0
-    optimize_hypers: bool = False
-    recommend: str = "lcb"
-    cap_mean: bool = True
-    recommend_noise: float | None = 0.2
-    y_max: float | None = None
-    # Defaults tuned on the planar quadrotor on seeds 100+ (never the reported seeds 0-9; BENCHMARKS.md, issue 5):
-    # the last 20 evaluations exploit, and the SE safety GP has lengthscale 0.05 (was 0.07): vehicle-safe seeds
-    # 100-119 re-flown E[P] 0.904 -> 0.884, seeds without an unsafe flight 14/20 -> 20/20 (safety first).
-    # Growing the search from x0: paper-setting seeds 100-105 median 0.841 (worst 0.336) -> 0.916 (worst 0.870).
-    exploit_last: int = 20
-    exclusion_radius: float = 0.05
-    explore_from: str = "x0"
-    exploit_beta: float = 0.0
-    lengthscale: float = 0.1
-    signal_std: float | None = None
-    signal_scale: float = 2.0
-    noise_std: float | None = None
-    noise_ratio: float = 0.02
-    safety_kernel: str = "se"
-    safety_lengthscale: float = 0.05
-    orders: tuple[int, ...] | None = None
-    top: int = 3
-    trials: int = 200
-    min_select: int = 10
-    max_order: int | None = None
-    select_at: int = 0
-    default_orders: tuple[int, ...] = (1, 2, 3)
-    dims: str = "all"
-    dropped: str = "fixed"
-    line_budget: int = 10
-    directions: str = "random"
-    line_points: int = 300
-    unconstrained_refit: int = 1
-    xi: float = 0.0
 
     def update(self, overrides: Mapping[str, Any]) -> "Options":
         """Copy with ``overrides`` applied; unknown names or invalid choices raise :class:`InputError`."""
@@ -107,6 +42,10 @@ class Options:
             raise InputError("max_order must be at least 1 (or None for all orders)")
         if self.signal_std is not None and not self.signal_std > 0:
             raise InputError("signal_std must be positive")
+        if self.max_aborts is not None and (isinstance(self.max_aborts, bool) or not int(self.max_aborts) >= 0):
+            raise InputError("max_aborts must be a non-negative integer (or None for the strict mode)")
+        if not (0 < self.tr_min <= self.tr_init <= self.tr_max):
+            raise InputError("trust region sizes must satisfy 0 < tr_min <= tr_init <= tr_max")
 
 
 _CHOICES: dict[str, tuple[str, ...]] = {
@@ -120,6 +59,12 @@ _CHOICES: dict[str, tuple[str, ...]] = {
 }
 
 
+#: The adaptive settings of method ``ksbo-adaptive`` (tuned on the nominal planar plant, seeds 100+).
+ADAPTIVE: dict[str, Any] = {
+    "learn_safety_scale": True, "trust_region": True, "max_aborts": 10, "refly_last": 9, "refly_top": 3,
+    "reselect_every": 25,
+}
+
 #: Defaults that differ per method (applied before the user's overrides).
 METHOD_DEFAULTS: dict[str, dict[str, Any]] = {
     # Order selection among 1..4 only: on the clustered data of a safe start (a0's local cloud + 25 BO
@@ -128,6 +73,9 @@ METHOD_DEFAULTS: dict[str, dict[str, Any]] = {
     # (BENCHMARKS.md, issue 5, with the other defaults of that time: vehicle-safe seeds 0-9, re-flown E[P]
     # 0.882 -> 0.901, unsafe flights 11 -> 4).
     "ksbo": {"max_order": 4, "beta": 5.0},
+    # Issue 13: ksbo with the learned safety scale, trust region, abort budget, re-flown recommendation and
+    # data-driven order re-selection. For objectives that report outcomes (a monitor with a backup).
+    "ksbo-adaptive": {"max_order": 4, "beta": 5.0, **ADAPTIVE},
     "standard": {},
     "safeopt": {"rule": "safeopt", "lengthscale": 0.07},
     "linebo": {"lengthscale": 0.07},
@@ -140,3 +88,6 @@ METHOD_DEFAULTS: dict[str, dict[str, Any]] = {
 def options_for(method: str, overrides: Mapping[str, Any] | None = None) -> Options:
     """Options of ``method`` with the user's ``overrides``."""
     return Options().update(METHOD_DEFAULTS.get(method, {})).update(overrides or {})
+
+
+__all__ = ["ADAPTIVE", "METHOD_DEFAULTS", "Options", "options_for", "part"]

@@ -14,6 +14,11 @@ region is reachable in 9-D (pitfall 4). Two acquisition rules:
 
 If no candidate is certified safe the observation with the largest LCB is re-evaluated (a *fallback*); with a
 known-safe start this is always a point that was safe before.
+
+With an :class:`AdaptiveConfig` (issue 13) the state machine also learns the safety GP's lengthscales, keeps a
+trust region, and — while the abort budget lasts — queries points the backup covers (certified with
+``backup_beta``, low predicted abort/crash probability). Aborted and crashed trials are censored: they enter the
+failure model and the exclusion balls, never the GPs as values. Re-fly phase and recommendation: opt.refly.
 """
 
 from __future__ import annotations
@@ -22,9 +27,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ksbo_mav.opt.acquisition import (Acquisition, BoundaryExpansion, PosteriorMean, SafeOptRule, SafeUCB,
+                                      WidestFeasible)
 from ksbo_mav.opt.candidates import local_gaussian, refine, sobol
+from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+from ksbo_mav.opt.failure_model import FailureModel, learn_lengthscales
 from ksbo_mav.opt.model import SafetyModel
-from ksbo_mav.opt.problem import Problem
+from ksbo_mav.opt.trust_region import TrustRegion
+from ksbo_mav.opt.outcome import Outcome
 
 RULES = ("ucb", "safeopt")
 #: Prior points this close (unit cube) to one of the optimiser's evaluations join its search region ("x0" mode).
@@ -33,78 +43,12 @@ CONNECT_RADIUS = 0.1
 EXPLOIT_SHARE = 5
 
 
-@dataclass(frozen=True)
-class SafeBOConfig:
-    """Settings of :class:`SafeBO` (building-block defaults; the user-facing defaults, tuned on the planar
-    quadrotor, are those of :class:`ksbo_mav.opt.options.Options`).
-
-    Attributes:
-        beta: safety multiplier: certified safe ⇔ μ − beta σ ≥ p_min.
-        beta_ucb: exploration multiplier of the UCB acquisition; None = ``beta``.
-        rule: ``"ucb"`` or ``"safeopt"`` (module docstring).
-        expansion_iters: BO iterations of boundary exploration under the ``"ucb"`` rule.
-        boundary_tol: boundary band ``LCB − p_min ≤ boundary_tol × signal_std``.
-        n_global: global Sobol candidates per iteration.
-        n_local: local Gaussian candidates per iteration.
-        local_scales: standard deviations (unit cube) of the local clouds.
-        n_anchors: certified-safe observations the clouds are centred on (best by UCB, then random).
-        refine_starts, refine_rounds, refine_samples, refine_scale: constrained local refinement (candidates.refine).
-        refit_every: full refit (ML-II if the model spec asks) every this many iterations; 0 = rank-one updates only.
-        recommend: ``"mean"`` or ``"lcb"``: criterion for the recommendation among evaluated certified-safe points.
-        cap_mean: in the safety bound use ``min(μ, max observed y)``: a GP mean overshooting every observation is
-            extrapolation, and certifying a point on it was the commonest route to unsafe queries on the quadrotor.
-        recommend_noise: if set, the recommendation uses a second GP (same kernel) with noise std
-            ``recommend_noise × signal_std``: one lucky
-            episode of a bistable gain vector next to crashed neighbours is then averaged with them.
-        y_max: known upper bound of the objective (P ≤ 1 on the quadrotor task); posterior means above it are
-            clipped in both bounds, so an overshooting additive model cannot drive the acquisition there.
-        exclusion_radius: candidates closer than this (unit cube, Euclidean) to an unsafe observation are never
-            certified. A Gaussian-noise GP treats one lucky episode of a bistable gain vector (0.9, where most
-            initial conditions crash) as solid evidence and keeps certifying the shell around it, crash after crash;
-            an unsafe outcome nearby is stronger evidence against the region than the GP admits.
-        exploit_beta: the exploitation phase maximises ``μ − exploit_beta·σ`` (0: the posterior mean); a positive
-            value keeps it nearer the data (on the quadrotor μ − σ cost 0.01 of re-flown E[P] and no tuning seed
-            needed it for safety, so the default is 0).
-        explore_from: ``"all"``: candidate clouds grow around any certified observation, plus global Sobol points;
-            ``"x0"``: only around the start and the optimiser's own evaluations (the prior informs the GP but does
-            not seed candidates), no global points. Under a safety bound β the certified boundary of a region with
-            mean μ has σ ≤ μ/β, so UCB there is at most μ(1 + β_ucb/β): a flat prior plateau at P 0.4 outbids a
-            steep slope starting at P 0.2 for the whole budget.
-        exploit_last: the last this many evaluations (at most a fifth of ``SafeBO.budget`` when that is set) maximise
-            the posterior mean inside the safe set (no exploration bonus): exploring then cannot pay off any more,
-            it only risks unsafe queries.
-    """
-
-    beta: float = 2.0
-    beta_ucb: float | None = None
-    rule: str = "ucb"
-    expansion_iters: int = 10
-    boundary_tol: float = 0.1
-    n_global: int = 256
-    n_local: int = 1536
-    local_scales: tuple[float, ...] = (0.02, 0.05, 0.1, 0.2)
-    n_anchors: int = 32
-    refine_starts: int = 8
-    refine_rounds: int = 4
-    refine_samples: int = 32
-    refine_scale: float = 0.05
-    refit_every: int = 0
-    recommend: str = "mean"
-    cap_mean: bool = True
-    recommend_noise: float | None = None
-    y_max: float | None = None
-    exploit_last: int = 0
-    exclusion_radius: float = 0.0
-    explore_from: str = "all"
-    exploit_beta: float = 0.0
-
-
 @dataclass
 class Proposal:
     """One proposed query: x (d,) unit cube, its posterior summary and how it was chosen."""
 
     x: np.ndarray
-    kind: str  # "expand" | "ucb" | "safeopt" | "exploit" | "fallback"
+    kind: str  # "expand" | "ucb" | "safeopt" | "exploit" | "fallback" | "refly" (+ "/backup" if not certified)
     mu: float
     sd: float
     lcb: float
@@ -122,42 +66,111 @@ class SafeBO:
     safety_model: SafetyModel | None = None  # optional second GP whose LCB must also clear p_min
     n_prior: int = 0  # leading rows of the data that are prior (not evaluated by this optimiser)
     budget: int = 0  # evaluations of the whole run (caps the exploitation phase); 0 = unknown, no cap
-    X: np.ndarray = field(init=False)
-    y: np.ndarray = field(init=False)
+    adaptive: AdaptiveConfig = field(default_factory=AdaptiveConfig)
+    X: np.ndarray = field(init=False)  # (n, d) every trial, prior first
+    y: np.ndarray = field(init=False)  # (n,) values; censored trials hold a value below p_min
+    complete: np.ndarray = field(init=False)  # (n,) bool: completed trials (the GPs' data)
+    crashed: np.ndarray = field(init=False)  # (n,) bool
     iteration: int = field(default=0, init=False)
     fallbacks: int = field(default=0, init=False)
     remaining: int | None = field(default=None, init=False)  # evaluations left, set by the driver loop
+    relaxed: bool = field(default=False, init=False)  # this proposal may use the backup (abort budget left)
+    tr: TrustRegion | None = field(default=None, init=False)
+    failures: FailureModel | None = field(default=None, init=False)
+    scale_history: list[list[float]] = field(default_factory=list, init=False)  # learnt (d,) lengthscales
+    refly_set: np.ndarray | None = field(default=None, init=False)  # (k,) data indices re-flown (opt.runner)
 
     def __post_init__(self) -> None:
         if self.config.rule not in RULES:
             raise ValueError(f"unknown rule {self.config.rule!r}; expected one of {RULES}")
         self.X = np.zeros((0, self.model.dim))
         self.y = np.zeros(0)
+        self.complete = np.zeros(0, dtype=bool)
+        self.crashed = np.zeros(0, dtype=bool)
+        a = self.adaptive
+        if a.trust_region:
+            self.tr = TrustRegion(a.tr_init, a.tr_min, a.tr_max, a.tr_grow, a.tr_shrink, a.tr_success)
 
     # -- data ---------------------------------------------------------------------------------------------------
-    def fit(self, X: np.ndarray, y: np.ndarray) -> None:
-        """Fit on all data so far: X (n, d) unit cube, y (n,)."""
+    @property
+    def aborts(self) -> int:
+        """Trials of this run that aborted or crashed (prior excluded)."""
+        return int(np.sum(~self.complete[self.n_prior :]))
+
+    def fit(self, X: np.ndarray, y: np.ndarray, complete: np.ndarray | None = None,
+            crashed: np.ndarray | None = None) -> None:
+        """Fit on all data so far: X (n, d) unit cube, y (n,), optional (n,) bool outcome masks."""
         self.X = np.asarray(X, dtype=float).reshape(-1, self.model.dim)
         self.y = np.asarray(y, dtype=float).reshape(-1)
+        n = self.y.size
+        self.complete = np.ones(n, dtype=bool) if complete is None else np.asarray(complete, dtype=bool)
+        self.crashed = np.zeros(n, dtype=bool) if crashed is None else np.asarray(crashed, dtype=bool)
         if self.x0 is None:
             self.x0 = self.X[0].copy()
-        self.model.fit(self.X, self.y)
-        if self.safety_model is not None:
-            self.safety_model.fit(self.X, self.y)
+        self._refit(learn=self.adaptive.learn_safety_scale)
+        if self.tr is not None:
+            self.tr.center = self.incumbent()
 
-    def observe(self, x: np.ndarray, y: float) -> None:
-        """Add one evaluation and advance the BO iteration counter (which keys the expansion phase)."""
+    def _refit(self, learn: bool = False) -> None:
+        Xc, yc = self.X[self.complete], self.y[self.complete]
+        for m in (self.model, self.safety_model):
+            if m is not None:
+                m.fit(Xc, yc)
+        target = self._scale_model()
+        if learn and target is not None and yc.size >= 2:
+            start = np.broadcast_to(np.asarray(target.spec.lengthscale, dtype=float), (self.model.dim,))
+            ls = learn_lengthscales(Xc, yc - self.p_min, target.signal_std, target.noise_std, start,
+                                    self.adaptive.safety_scale_prior, self.adaptive.safety_scale_bounds, self.rng)
+            target.spec = target.spec.with_(lengthscale=tuple(float(v) for v in ls))
+            target.fit(Xc, yc)
+            self.scale_history.append([float(v) for v in ls])
+        if self.tr is not None and target is not None and np.ndim(target.spec.lengthscale):
+            self.tr.set_weights(np.asarray(target.spec.lengthscale, dtype=float))
+        if self.adaptive.max_aborts is not None:
+            self.failures = FailureModel(self._safety_lengthscales()).fit(self.X, ~self.complete, self.crashed)
+
+    def _scale_model(self) -> SafetyModel | None:
+        """The SE-ARD GP whose lengthscales are the safety scale (the safety GP, or an SE-ARD main model)."""
+        if self.safety_model is not None:
+            return self.safety_model
+        return self.model if tuple(self.model.spec.orders) == (self.model.dim,) else None
+
+    def _safety_lengthscales(self) -> np.ndarray:
+        m = self._scale_model() or self.model
+        return np.broadcast_to(np.asarray(m.spec.lengthscale, dtype=float), (self.model.dim,)).copy()
+
+    def observe(self, x: np.ndarray, y: float, outcome: Outcome = Outcome.COMPLETE) -> None:
+        """Add one trial and advance the BO iteration counter (which keys the expansion phase).
+
+        A completed trial updates the GPs (rank-one, or a full refit every ``refit_every`` iterations; the safety
+        scale is relearnt every ``scale_refit_every``); an aborted or crashed one only the failure records.
+        """
         self.iteration += 1
+        done = outcome is Outcome.COMPLETE
+        best_before = float(np.max(self.y[self.complete], initial=-np.inf))
         self.X = np.vstack([self.X, np.asarray(x, float).reshape(1, -1)])
         self.y = np.append(self.y, float(y))
-        k = self.config.refit_every
-        for m in (self.model, self.safety_model):
-            if m is None:
-                continue
-            if k and self.iteration % k == 0:
-                m.fit(self.X, self.y)
-            else:
-                m.add(x, y)
+        self.complete = np.append(self.complete, done)
+        self.crashed = np.append(self.crashed, outcome is Outcome.CRASHED)
+        k, a = self.config.refit_every, self.adaptive
+        learn = a.learn_safety_scale and a.scale_refit_every > 0 and self.iteration % a.scale_refit_every == 0
+        if learn or (k and self.iteration % k == 0) or (not done and a.max_aborts is not None):
+            self._refit(learn=learn)
+        elif done:
+            for m in (self.model, self.safety_model):
+                if m is not None:
+                    m.add(x, y)
+        if self.tr is not None:
+            self.tr.update(outcome, done and y >= self.p_min and y > best_before)
+            self.tr.center = self.incumbent()
+
+    def incumbent(self) -> np.ndarray:
+        """(d,) best completed safe trial by posterior mean (the trust region's centre; x0 before any)."""
+        ok = self.complete & (self.y >= self.p_min)
+        if not ok.any():
+            return self.x0.copy()
+        mu, _ = self.model.predict(self.X[ok])
+        return self.X[ok][int(np.argmax(mu))].copy()
 
     # -- posterior ----------------------------------------------------------------------------------------------
     @property
@@ -168,49 +181,60 @@ class SafeBO:
         """Posterior mean, marginal std, LCB (safety β) and UCB (acquisition β) at Xc (m, d); four (m,) arrays.
 
         With a ``safety_model`` the LCB is the smaller of both models' bounds (a point must be certified by both);
-        mean, std and UCB are the main model's.
+        mean, std and UCB are the main model's. While :attr:`relaxed`, the LCB uses ``backup_beta``.
         """
         mu, sd = self.model.predict(Xc)
         if self.config.y_max is not None:
             mu = np.minimum(mu, self.config.y_max)
         b_ucb = self.config.beta if self.config.beta_ucb is None else self.config.beta_ucb
-        cap = self.y.max() if self.config.cap_mean and self.y.size else np.inf
+        beta = self.adaptive.backup_beta if self.relaxed else self.config.beta
+        yc = self.y[self.complete]
+        cap = yc.max() if self.config.cap_mean and yc.size else np.inf
         if self.config.y_max is not None:
             cap = min(cap, self.config.y_max)
-        lcb = np.minimum(mu, cap) - self.config.beta * sd
+        lcb = np.minimum(mu, cap) - beta * sd
         if self.safety_model is not None:
             mu_s, sd_s = self.safety_model.predict(Xc)
-            lcb = np.minimum(lcb, np.minimum(mu_s, cap) - self.config.beta * sd_s)
+            lcb = np.minimum(lcb, np.minimum(mu_s, cap) - beta * sd_s)
         return mu, sd, lcb, mu + b_ucb * sd
 
     def safe_mask(self, Xc: np.ndarray) -> np.ndarray:
-        """(m,) bool: which of Xc are certified safe (LCB ≥ p_min and outside every exclusion ball)."""
+        """(m,) bool: which of Xc may be queried (LCB ≥ p_min, outside every exclusion ball, ...)."""
         return self.feasible(Xc, self.bounds(Xc)[2])
 
     def feasible(self, Z: np.ndarray, lcb: np.ndarray) -> np.ndarray:
-        """(m,) bool: Z (m, d) with lower bounds ``lcb`` (m,) certified (LCB ≥ p_min, no unsafe point nearby)."""
+        """(m,) bool: Z (m, d) with lower bounds ``lcb`` (m,) certified (LCB ≥ p_min, no unsafe or failed trial
+        nearby); with a trust region also inside it, and while :attr:`relaxed` also predicted to abort and crash
+        rarely enough (the backup covers the rest)."""
         ok = lcb >= self.p_min
         r = self.config.exclusion_radius
-        bad = self.X[self.y < self.p_min]
+        bad = self.X[(self.y < self.p_min) | ~self.complete]
         if r > 0 and bad.shape[0] and ok.any():
             d2 = ((Z[ok, None, :] - bad[None, :, :]) ** 2).sum(-1).min(axis=1)
             idx = np.flatnonzero(ok)
             ok[idx[d2 < r * r]] = False
+        if self.tr is not None and ok.any():
+            ok &= self.tr.contains(Z)
+        if self.relaxed and self.failures is not None and ok.any():
+            p_abort, p_crash = self.failures.predict(Z[ok])
+            idx = np.flatnonzero(ok)
+            ok[idx[(p_abort > self.adaptive.abort_tol) | (p_crash > self.adaptive.crash_tol)]] = False
         return ok
 
     # -- candidates ---------------------------------------------------------------------------------------------
     def _anchors(self, lcb_d: np.ndarray, ucb_d: np.ndarray) -> np.ndarray:
-        ok = (lcb_d >= self.p_min) & (self.y >= self.p_min)
+        ok = (lcb_d >= self.p_min) & (self.y >= self.p_min) & self.complete
         ok &= self._connected()
         idx = np.flatnonzero(ok)
         if idx.size == 0:
-            return self.X[[int(np.argmax(lcb_d))]]
+            return self.X[[int(np.argmax(np.where(self.complete, lcb_d, -np.inf)))]]
         n = self.config.n_anchors
         best = idx[np.argsort(-ucb_d[idx])][: max(n // 2, 1)]
         rest = np.setdiff1d(idx, best)
         if rest.size:
             best = np.concatenate([best, self.rng.choice(rest, size=min(n - best.size, rest.size), replace=False)])
-        return self.X[best]
+        A = self.X[best]
+        return A if self.tr is None else np.vstack([self.tr.center, A])
 
     def _connected(self) -> np.ndarray:
         """(n,) bool: observations that may anchor candidate clouds.
@@ -243,120 +267,95 @@ class SafeBO:
         C[:, ~self.free] = self.x0[~self.free]
         return C
 
-    def _widest_safe(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Refinement score of the pure-exploration rules: posterior std (m,) and certified mask (m,) of Z (m, d)."""
-        _, s, lo, _ = self.bounds(Z)
-        return s, self.feasible(Z, lo)
-
     # -- the step -----------------------------------------------------------------------------------------------
+    def n_exploit(self) -> int:
+        """Evaluations of the final exploitation phase (at most a fifth of the budget)."""
+        c = self.config
+        return min(c.exploit_last, self.budget // EXPLOIT_SHARE) if self.budget > 0 else c.exploit_last
+
+    def rule(self, C: np.ndarray, lcb_d: np.ndarray) -> Acquisition:
+        """The acquisition rule of this iteration (module docstring) for the candidate set C (m, d)."""
+        c = self.config
+        if self.remaining is not None and self.remaining <= self.n_exploit():
+            return PosteriorMean(self, c.exploit_beta)
+        if c.rule == "ucb":
+            if self.iteration >= c.expansion_iters:
+                return SafeUCB(self)
+            return BoundaryExpansion(self, self.p_min, c.boundary_tol * self.model.signal_std)
+        _, _, lcb, _ = self.bounds(C)
+        safe = self.feasible(C, lcb)
+        best_lcb = max(float(lcb[safe].max()),
+                       float(np.max(np.where((lcb_d >= self.p_min) & self.complete, lcb_d, -np.inf))))
+        rule = SafeOptRule(self, self.p_min, c.boundary_tol * self.model.signal_std, best_lcb)
+        return rule if rule(C)[1].any() else WidestFeasible(self)  # an observation's LCB beats every UCB
+
     def propose(self) -> Proposal:
-        """Next query point (certified safe unless ``kind == "fallback"``)."""
+        """Next query point (certified safe unless ``kind`` is "fallback" or ends in "/backup")."""
+        c, a = self.config, self.adaptive
+        exploring = self.remaining is None or self.remaining > self.n_exploit()
+        self.relaxed = a.max_aborts is not None and exploring and self.aborts < a.max_aborts
+        try:
+            return self._propose()
+        finally:
+            self.relaxed = False
+
+    def _propose(self) -> Proposal:
         c = self.config
         mu_d, sd_d, lcb_d, ucb_d = self.bounds(self.X)
         C = self.candidates(self._anchors(lcb_d, ucb_d))
-        mu, sd, lcb, ucb = self.bounds(C)
-        safe = self.feasible(C, lcb)
-        if not safe.any():
+        _, _, lcb, _ = self.bounds(C)
+        if not self.feasible(C, lcb).any():
             self.fallbacks += 1
-            # Re-evaluate the best-LCB observation that lies in the search subspace (x0 always does).
-            inside = np.all(self.X[:, ~self.free] == self.x0[~self.free], axis=1)
+            # Re-evaluate the best-LCB completed observation in the search subspace (x0 always is).
+            inside = np.all(self.X[:, ~self.free] == self.x0[~self.free], axis=1) & self.complete
             i = int(np.argmax(np.where(inside, lcb_d, -np.inf))) if inside.any() else int(np.argmax(lcb_d))
             return Proposal(self.X[i].copy(), "fallback", float(mu_d[i]), float(sd_d[i]), float(lcb_d[i]))
-        band = c.boundary_tol * self.model.signal_std
-        p_min = self.p_min
-
-        n_exploit = min(c.exploit_last, self.budget // EXPLOIT_SHARE) if self.budget > 0 else c.exploit_last
-        if self.remaining is not None and self.remaining <= n_exploit:
-            kind = "exploit"
-            kb = c.exploit_beta
-
-            def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-                m, s, lo, _ = self.bounds(Z)
-                return m - kb * s, self.feasible(Z, lo)
-
-            score = np.where(safe, mu - kb * sd, -np.inf)
-        elif c.rule == "ucb" and self.iteration >= c.expansion_iters:
-            kind = "ucb"
-
-            def evaluate(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-                _, _, lo, up = self.bounds(Z)
-                return up, self.feasible(Z, lo)
-
-            score = np.where(safe, ucb, -np.inf)
-        elif c.rule == "ucb":
-            kind = "expand"
-            boundary = safe & (lcb - p_min <= band)
-            pool = boundary if boundary.any() else safe
-            evaluate = self._widest_safe
-            score = np.where(pool, sd, -np.inf)
-        else:
-            kind = "safeopt"
-            best_lcb = max(float(lcb[safe].max()), float(np.max(np.where(lcb_d >= p_min, lcb_d, -np.inf))))
-
-            def in_pool(Z: np.ndarray, lo: np.ndarray, up: np.ndarray) -> np.ndarray:
-                return self.feasible(Z, lo) & ((up >= best_lcb) | (lo - p_min <= band))
-
-            def in_pool_widest(Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-                _, s, lo, up = self.bounds(Z)
-                return s, in_pool(Z, lo, up)
-
-            pool, evaluate = in_pool(C, lcb, ucb), in_pool_widest
-            if not pool.any():  # an observation's LCB beats every candidate's UCB: widest safe candidate
-                pool, evaluate = safe, self._widest_safe
-
-            score = np.where(pool, sd, -np.inf)
-
+        rule = self.rule(C, lcb_d)
+        score, ok = rule(C)
+        pool = rule.pool(C) if isinstance(rule, BoundaryExpansion) else ok
+        score = np.where(pool, score, -np.inf)
         order = np.argsort(-score)[: c.refine_starts]
         order = order[np.isfinite(score[order])]
-        starts, s_ref = refine(
-            evaluate, C[order], self.rng, c.refine_rounds, c.refine_samples, c.refine_scale, free=self.free
-        )
-        j = int(np.argmax(s_ref))
-        x = starts[j]
+        starts, s_ref = refine(rule, C[order], self.rng, c.refine_rounds, c.refine_samples, c.refine_scale,
+                               free=self.free)
+        x = starts[int(np.argmax(s_ref))]
         m, s, lo, _ = self.bounds(x[None, :])
         if not self.feasible(x[None, :], lo)[0]:  # cannot happen (refine only accepts feasible moves): a guard
             x = C[order[0]]
             m, s, lo, _ = self.bounds(x[None, :])
+        kind = rule.kind
+        if self.relaxed:
+            self.relaxed = False
+            if not self.safe_mask(x[None, :])[0]:
+                kind += "/backup"
         return Proposal(x.copy(), kind, float(m[0]), float(s[0]), float(lo[0]))
 
     # -- recommendation -----------------------------------------------------------------------------------------
-    def recommend(self) -> tuple[int, float, float]:
-        """Index into the data of the recommended point, with its posterior mean and LCB.
-
-        Among observations that were safe *and* are certified safe by the model, the best posterior mean (or LCB):
-        the model's smoothed judgement, not the luckiest noisy observation (part D: bistable gains).
-        """
+    def smoothed(self) -> tuple[np.ndarray, np.ndarray]:
+        """Recommendation criterion at the data: (n,) posterior mean and (n,) LCB (of the smoothing GP)."""
         mu, _, lcb, _ = self.bounds(self.X)
-        ok = (self.y >= self.p_min) & (lcb >= self.p_min)
         if self.config.recommend_noise is not None:
             smooth = SafetyModel(self.model.spec.with_(signal_std=self.model.signal_std,
                                                        noise_std=self.config.recommend_noise * self.model.signal_std),
                                  self.model.dim, self.p_min, self.model.seed)
-            smooth.fit(self.X, self.y)
+            smooth.fit(self.X[self.complete], self.y[self.complete])
             mu_s, sd_s = smooth.predict(self.X)
             mu, lcb = mu_s, mu_s - self.config.beta * sd_s
+        return mu, lcb
+
+    def recommend(self) -> tuple[int, float, float]:
+        """Index into the data of the recommended point, with its posterior mean and LCB.
+
+        Among completed observations that were safe *and* are certified safe by the model, the best posterior
+        mean (or LCB): the model's smoothed judgement, not the luckiest noisy observation (part D: bistable gains).
+        """
+        _, _, lcb_strict, _ = self.bounds(self.X)
+        ok = (self.y >= self.p_min) & (lcb_strict >= self.p_min) & self.complete
+        mu, lcb = self.smoothed()
         if not ok.any():
-            ok = self.y >= self.p_min
+            ok = (self.y >= self.p_min) & self.complete
         if not ok.any():
             ok = np.ones_like(ok)
         crit = lcb if self.config.recommend == "lcb" else mu
         i = int(np.argmax(np.where(ok, crit, -np.inf)))
         return i, float(mu[i]), float(lcb[i])
-
-
-def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None) -> list[dict]:
-    """Spend the remaining budget of ``problem`` with ``bo`` (already fitted on ``problem.data()``).
-
-    With ``max_iters`` stop once ``bo.iteration`` reaches it (e.g. to re-select the kernel).
-
-    Returns one record per query (kind, posterior mean/std/LCB at proposal time, observed y): the data for
-    checking the model's calibration (how often was a certified point unsafe?).
-    """
-    log = []
-    while problem.remaining > 0 and (max_iters is None or bo.iteration < max_iters):
-        bo.remaining = problem.remaining
-        p = bo.propose()
-        y = problem.evaluate(p.x)
-        bo.observe(p.x, y)
-        log.append({"kind": p.kind, "mu": p.mu, "sd": p.sd, "lcb": p.lcb, "y": y})
-    return log

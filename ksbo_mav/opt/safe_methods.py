@@ -17,23 +17,26 @@ still drives the acquisition and the recommendation, which is where kernel selec
 
 from __future__ import annotations
 
-from dataclasses import fields
 from typing import Any
 
 import numpy as np
 
+from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig, part
 from ksbo_mav.opt.model import ModelSpec, SafetyModel, active_mask
 from ksbo_mav.opt.options import Options
+from ksbo_mav.opt.outcome import Outcome
 from ksbo_mav.opt.problem import Problem, build_result
 from ksbo_mav.opt.result import OptimizeResult
-from ksbo_mav.opt.safe_bo import SafeBO, SafeBOConfig, run_safe_bo
+from ksbo_mav.opt.runner import recommend, run_safe_bo
+from ksbo_mav.opt.safe_bo import SafeBO
+from ksbo_mav.opt.selection import KernelSelection, reselect_by_evidence, select_kernel
 
 
 def bo_config(opts: Options) -> SafeBOConfig:
-    """The :class:`SafeBOConfig` part of ``opts`` (fields of the same name; the rest keep their defaults)."""
-    shared = {f.name: getattr(opts, f.name) for f in fields(SafeBOConfig) if hasattr(opts, f.name)}
-    shared["local_scales"] = tuple(shared["local_scales"])
-    return SafeBOConfig(**shared)
+    """The :class:`SafeBOConfig` part of ``opts``."""
+    cfg = part(opts, SafeBOConfig)
+    return cfg if isinstance(cfg.local_scales, tuple) else SafeBOConfig(**{**cfg.__dict__,
+                                                                          "local_scales": tuple(cfg.local_scales)})
 
 
 def model_spec(opts: Options, orders: tuple[int, ...], active_dims: tuple[int, ...] | None = None) -> ModelSpec:
@@ -49,49 +52,6 @@ def model_spec(opts: Options, orders: tuple[int, ...], active_dims: tuple[int, .
         optimize=opts.optimize_hypers,
         dropped_in_order1=opts.dropped == "order1",
     )
-
-
-def select_kernel(X: np.ndarray, y: np.ndarray, opts: Options, seed: int | None) -> dict[str, Any]:
-    """Kernel selection on the data available before BO: orders by C_ree, then optional dimension selection.
-
-    Returns a dict with ``orders`` (best first), ``dims`` (sorted union of kept dimensions or None = all) and the
-    selection tables for the result's ``info``.
-    """
-    d = X.shape[1]
-    if opts.orders is not None:
-        return {"orders": tuple(opts.orders), "dims": None, "selected": False}
-    if len(y) < opts.min_select:
-        return {"orders": tuple(opts.default_orders), "dims": None, "selected": False,
-                "reason": f"{len(y)} observations < min_select={opts.min_select}"}
-    from ksbo_mav.select import select_orders
-
-    # C_ree is computed with the base lengthscale the GP will use, so the ranking is about this model.
-    top_order = d if opts.max_order is None else max(1, min(d, int(opts.max_order)))
-    sel = select_orders(X, y, orders=range(1, top_order + 1), trials=opts.trials, top=min(opts.top, top_order),
-                        seed=seed, lengthscales=opts.lengthscale)
-    orders = tuple(int(r) for r in sel.orders)[: opts.top]
-    out: dict[str, Any] = {
-        "orders": orders,
-        "dims": None,
-        "selected": True,
-        "cree": {int(r): float(v) for r, v in sel.mean.items()},
-        "top_frequency": {int(r): float(v) for r, v in sel.top_frequency.items()},
-    }
-    if opts.dims != "all":
-        from ksbo_mav.select import select_dimensions
-
-        kept: set[int] = set()
-        per_order = {}
-        for r in orders:
-            ds = select_dimensions(X, y, r, method=opts.dims, seed=seed)
-            dims_r = getattr(ds, "dims", ds)
-            per_order[int(r)] = [int(i) for i in dims_r]
-            kept.update(per_order[int(r)])
-        # Every kept order needs at least `order` dimensions.
-        if len(kept) >= max(orders):
-            out["dims"] = tuple(sorted(kept))
-        out["dims_per_order"] = per_order
-    return out
 
 
 def _build(
@@ -114,49 +74,91 @@ def _build(
     elif opts.safety_kernel not in ("same", "se"):
         raise ValueError(f"unknown safety_kernel {opts.safety_kernel!r}")
     return SafeBO(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
-                  safety_model=safety, n_prior=len(problem.prior_y), budget=problem.budget)
+                  safety_model=safety, n_prior=len(problem.prior_y), budget=problem.budget,
+                  adaptive=part(opts, AdaptiveConfig))
+
+
+def _outcome_masks(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
+    """(n,) complete and crashed masks of ``problem.data()`` (prior rows count as complete)."""
+    m = len(problem.prior_y)
+    done = np.array([True] * m + [o is Outcome.COMPLETE for o in problem.outcomes], dtype=bool)
+    crashed = np.array([False] * m + [o is Outcome.CRASHED for o in problem.outcomes], dtype=bool)
+    return done, crashed
+
+
+def _switch_orders(bo: SafeBO, orders: tuple[int, ...]) -> None:
+    """Rebuild the main GP with new orders (scales kept) and refit it on the completed data."""
+    old = bo.model
+    spec = old.spec.with_(orders=tuple(orders), signal_std=old.signal_std, noise_std=old.noise_std)
+    bo.model = SafetyModel(spec, old.dim, old.p_min, old.seed)
+    bo.model.fit(bo.X[bo.complete], bo.y[bo.complete])
 
 
 def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | None) -> OptimizeResult:
-    """Run ``ksbo``, ``standard`` or ``safeopt`` on ``problem`` (x0 already evaluated).
+    """Run ``ksbo`` / ``ksbo-adaptive``, ``standard`` or ``safeopt`` on ``problem`` (x0 already evaluated).
 
-    ksbo selects its kernel on the data available before BO (prior + x0); with ``select_at = k > 0`` it selects
-    again on all data after k BO iterations (for runs without an informative prior) and continues with the new
-    kernel, keeping the iteration counter and the prior scales.
+    ksbo selects its kernel on the data available before BO (prior + x0) with Algorithm 1; with ``select_at``
+    = k > 0 it selects again by C_ree after k BO iterations; with ``reselect_every`` = k > 0 it re-selects by
+    evidence every k iterations (``info["reselections"]`` lists each, with ``changed``).
     """
     d = problem.dim
     X, y = problem.data()
+    done, crashed = _outcome_masks(problem)
     info: dict[str, Any] = {"options": opts}
-    if method == "ksbo":
-        sel = select_kernel(X, y, opts, seed)
-        orders, dims = sel["orders"], sel["dims"]
-        info["selection"] = sel
+    ksbo = method in ("ksbo", "ksbo-adaptive")
+    if ksbo:
+        sel = select_kernel(X[done], y[done], opts, opts.lengthscale, seed)
     elif method == "standard":
-        orders, dims = (1, d) if d > 1 else (1,), None
+        sel = KernelSelection((1, d) if d > 1 else (1,), method="fixed", reason="standard: orders 1 + d")
     elif method == "safeopt":
-        orders, dims = (d,), None
+        sel = KernelSelection((d,), method="fixed", reason="safeopt: SE-ARD")
     else:
         raise ValueError(method)
+    info["selection"] = sel.as_dict()
+    selections = [sel]
     rng = np.random.default_rng(seed)
-    bo = _build(problem, opts, orders, dims, seed, rng)
-    bo.fit(X, y)
-    reselect = method == "ksbo" and opts.select_at > 0 and opts.orders is None
-    log = run_safe_bo(problem, bo, max_iters=opts.select_at if reselect else None)
+    bo = _build(problem, opts, sel.orders, sel.dims, seed, rng)
+    bo.fit(X, y, done, crashed)
+    every = opts.reselect_every if ksbo and opts.orders is None and sel.dims is None else 0
+
+    def after(b: SafeBO) -> None:
+        if every and b.iteration % every == 0 and b.complete.sum() >= 2:
+            new = reselect_by_evidence(b.model, b.X[b.complete], b.y[b.complete], opts, b.iteration)
+            selections.append(new)
+            if new.changed:
+                _switch_orders(b, new.orders)
+
+    reselect = ksbo and opts.select_at > 0 and opts.orders is None
+    log = run_safe_bo(problem, bo, max_iters=opts.select_at if reselect else None, after=after)
     if reselect and problem.remaining > 0:
         X, y = problem.data()
-        sel = select_kernel(X, y, opts, seed)
-        info["reselection"] = {"at_iteration": bo.iteration, **sel}
+        done, crashed = _outcome_masks(problem)
+        sel = select_kernel(X[done], y[done], opts, opts.lengthscale, seed)
+        info["reselection"] = {**sel.as_dict(), "at_iteration": bo.iteration}
         fixed = opts.update({"signal_std": bo.model.signal_std, "noise_std": bo.model.noise_std})
         old = bo
-        bo = _build(problem, fixed, sel["orders"], sel["dims"], seed, rng)
+        bo = _build(problem, fixed, sel.orders, sel.dims, seed, rng)
         bo.iteration, bo.fallbacks = old.iteration, old.fallbacks
-        bo.fit(X, y)
-        log += run_safe_bo(problem, bo)
+        bo.fit(X, y, done, crashed)
+        log += run_safe_bo(problem, bo, after=after)
     info["proposals"] = log
-    i, mu, lcb = bo.recommend()
+    if len(selections) > 1:
+        info["reselections"] = [s.as_dict() for s in selections[1:]]
+        info["reselection_changes"] = sum(s.changed for s in selections[1:])
+    if bo.scale_history:
+        info["safety_lengthscales"] = bo.scale_history
+    if bo.tr is not None:
+        info["trust_region"] = {"radius": bo.tr.radius, "history": bo.tr.history}
+    if problem.stopped and opts.max_aborts is not None and bo.aborts >= opts.max_aborts:
+        info["stopped"] = f"max_aborts={opts.max_aborts} reached"
+    if bo.refly_set is not None:
+        info["reflown"] = [problem.to_physical(bo.X[i]).tolist() for i in bo.refly_set]
+    i, mu, lcb = recommend(bo)
     info["signal_std"] = bo.model.signal_std
     info["noise_std"] = bo.model.noise_std
-    return build_result(
+    result = build_result(
         problem, method, i, mu=mu, lcb=lcb, orders=tuple(bo.model.spec.orders), dims=bo.model.spec.active_dims,
         fallbacks=bo.fallbacks, info=info,
     )
+    result.selection = selections[-1]
+    return result

@@ -1,0 +1,169 @@
+"""Typed configuration of the safe optimisers: the one place every default is defined.
+
+:class:`ksbo_mav.opt.options.Options` (what ``optimize(**options)`` validates) is the composition of these
+dataclasses, so a field such as ``beta`` has one default whether it is read through ``Options`` or through the
+:class:`SafeBOConfig` the state machine receives (issue 14: they used to differ, β 4 vs 2).
+
+Defaults were tuned on the planar quadrotor, tuning seeds 100+ (BENCHMARKS.md, issues 5 and 13).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class SafeBOConfig:
+    """Settings of :class:`ksbo_mav.opt.safe_bo.SafeBO`.
+
+    Attributes:
+        beta: safety multiplier: certified safe ⇔ μ − beta σ ≥ p_min.
+        beta_ucb: exploration multiplier of the UCB acquisition; None = ``beta``.
+        rule: ``"ucb"`` (boundary expansion for ``expansion_iters`` BO iterations, then safe UCB) or
+            ``"safeopt"`` (widest interval among plausible maximisers and boundary points).
+        expansion_iters: BO iterations of boundary exploration under the ``"ucb"`` rule.
+        boundary_tol: boundary band ``LCB − p_min ≤ boundary_tol × signal_std``.
+        n_global, n_local: global Sobol / local Gaussian candidates per iteration.
+        local_scales: standard deviations (unit cube) of the local clouds.
+        n_anchors: certified-safe observations the clouds are centred on (best by UCB, then random).
+        refine_starts, refine_rounds, refine_samples, refine_scale: constrained local refinement (candidates.refine).
+        refit_every: full refit every this many iterations; 0 = rank-one updates only.
+        recommend: ``"mean"`` or ``"lcb"``: criterion among evaluated certified-safe points.
+        cap_mean: the safety bound uses ``min(μ, max observed y)`` (an overshooting mean is extrapolation).
+        recommend_noise: the recommendation uses a second GP with noise std ``recommend_noise × signal_std``
+            (averages a lucky episode of a bistable gain with its crashed neighbours); None = the model itself.
+        y_max: known upper bound of the objective (clips posterior means).
+        exploit_last: the last this many evaluations (at most a fifth of the budget) maximise
+            ``μ − exploit_beta·σ`` inside the safe set.
+        exclusion_radius: no certified candidate closer than this (unit cube) to an unsafe or failed trial.
+        explore_from: ``"x0"`` (clouds grow from the start and the optimiser's own evaluations; prior points join
+            once reached; no global points) or ``"all"``.
+        exploit_beta: see ``exploit_last``.
+    """
+
+    beta: float = 4.0
+    beta_ucb: float | None = 2.0
+    rule: str = "ucb"
+    expansion_iters: int = 10
+    boundary_tol: float = 0.1
+    n_global: int = 256
+    n_local: int = 1536
+    local_scales: tuple[float, ...] = (0.02, 0.05, 0.1, 0.2)
+    n_anchors: int = 32
+    refine_starts: int = 8
+    refine_rounds: int = 4
+    refine_samples: int = 32
+    refine_scale: float = 0.05
+    refit_every: int = 0
+    recommend: str = "lcb"
+    cap_mean: bool = True
+    recommend_noise: float | None = 0.2
+    y_max: float | None = None
+    # Tuned on seeds 100-119 (issue 5): the last 20 evaluations exploit; growing the search from x0.
+    exploit_last: int = 20
+    exclusion_radius: float = 0.05
+    explore_from: str = "x0"
+    exploit_beta: float = 0.0
+
+
+@dataclass(frozen=True)
+class AdaptiveConfig:
+    """Issue 13: learned safety scale, trust region, abort-and-restore exploration, re-flown recommendation.
+
+    Attributes:
+        learn_safety_scale: fit the safety GP's per-dimension lengthscales by marginal likelihood (log-normal
+            hyperprior ``safety_scale_prior`` = (median, log-sd), bounds ``safety_scale_bounds``) every
+            ``scale_refit_every`` evaluations, on completed trials.
+        trust_region: candidates stay in a box around the incumbent whose half-width grows ×``tr_grow`` after
+            ``tr_success`` safe improvements and shrinks ×``tr_shrink`` after an abort or crash (opt.trust_region).
+        max_aborts: abort budget. None = strict (the paper's mode: only certified queries, never stopped).
+            An integer k: while fewer than k trials aborted or crashed, trials the backup covers may leave the
+            certified set (certified with ``backup_beta`` instead of ``beta``, inside the trust region, where the
+            failure model predicts P(abort) ≤ ``abort_tol`` and P(crash) ≤ ``crash_tol``); once k is reached the
+            run ends, so k is never exceeded.
+        refly_last: the last this many evaluations re-fly the ``refly_top`` best completed points (by the
+            recommendation's criterion); the recommendation is then the best mean over each point's flights.
+        reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
+            by marginal likelihood (Algorithm 1 stays the first selection); 0 = never.
+    """
+
+    learn_safety_scale: bool = False
+    safety_scale_prior: tuple[float, float] = (0.1, 1.0)
+    safety_scale_bounds: tuple[float, float] = (0.01, 1.0)
+    scale_refit_every: int = 5
+    trust_region: bool = False
+    tr_init: float = 0.1
+    tr_min: float = 0.02
+    tr_max: float = 0.5
+    tr_grow: float = 2.0
+    tr_shrink: float = 0.5
+    tr_success: int = 2
+    max_aborts: int | None = None
+    backup_beta: float = 1.0
+    abort_tol: float = 0.3
+    crash_tol: float = 0.1
+    refly_last: int = 0
+    refly_top: int = 3
+    reselect_every: int = 0
+
+    @property
+    def enabled(self) -> bool:
+        """Whether any adaptive mechanism is on (off = the paper's strict safe BO, bit for bit)."""
+        return (self.learn_safety_scale or self.trust_region or self.max_aborts is not None
+                or self.refly_last > 0 or self.reselect_every > 0)
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """GP priors (unit cube; see opt.model.ModelSpec): lengthscale, signal/noise scales, the safety GP.
+
+    ``safety_kernel="se"`` makes an SE-ARD GP with ``safety_lengthscale`` certify every query as well.
+    ``optimize_hypers``: ML-II on refits of the main GP.
+    """
+
+    lengthscale: float = 0.1
+    signal_std: float | None = None
+    signal_scale: float = 2.0
+    noise_std: float | None = None
+    noise_ratio: float = 0.02
+    safety_kernel: str = "se"
+    safety_lengthscale: float = 0.05
+    optimize_hypers: bool = False
+
+
+@dataclass(frozen=True)
+class SelectionConfig:
+    """Kernel selection of ksbo (opt.selection): fixed ``orders`` skip it; ``top`` orders kept among
+    1..``max_order`` by ``trials`` repetitions of Algorithm 1 once ``min_select`` observations exist (else
+    ``default_orders``); ``dims`` per-order dimension selection; ``select_at`` a C_ree re-selection after that
+    many iterations; ``dropped`` what happens to unselected dimensions ("fixed" at x0 or "order1")."""
+
+    orders: tuple[int, ...] | None = None
+    top: int = 3
+    trials: int = 200
+    min_select: int = 10
+    max_order: int | None = None
+    select_at: int = 0
+    default_orders: tuple[int, ...] = (1, 2, 3)
+    dims: str = "all"
+    dropped: str = "fixed"
+
+
+@dataclass(frozen=True)
+class BaselineConfig:
+    """LineBO (``line_budget``, ``directions``, ``line_points``) and unconstrained BO (``unconstrained_refit``,
+    EI margin ``xi``)."""
+
+    line_budget: int = 10
+    directions: str = "random"
+    line_points: int = 300
+    unconstrained_refit: int = 1
+    xi: float = 0.0
+
+
+def part(source: Any, cls: type[T]) -> T:
+    """The ``cls`` part of a composed config (fields of the same name)."""
+    return cls(**{f.name: getattr(source, f.name) for f in fields(cls)})
