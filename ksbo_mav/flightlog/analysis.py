@@ -66,7 +66,6 @@ def find_segments(log: FlightLog, min_duration: float = 2.0) -> list[Segment]:
         if n < 10:
             continue
         out.append(Segment(len(out) + 1, a, b, name, last))
-    # merge consecutive segments of the same mode split only by a repeated mode report
     return out
 
 
@@ -265,13 +264,19 @@ def analyse(log: FlightLog, mission=None, profile_name: str | None = None, parti
         what = "no position targets at all" if log.target is None else f"modes seen: {seen}"
         raise InputError(f"{log.path}: no segment where the vehicle tracked position targets in a guided/auto/"
                          f"offboard mode ({what})")
+    if log.truncated_at is None and log.fmt in ("bin", "ulg") and segs[-1].open_end:
+        # An onboard log closes after disarm; one that stops in a tracking mode was cut on a message boundary.
+        log.truncated_at = float(log.actual.t[-1])
+        log.info["truncated"] = (f"it stops at t={log.truncated_at:.1f} s in {segs[-1].mode}, before any mode "
+                                 f"change or disarm")
     if log.truncated_at is not None:
         cut = [s for s in segs if s.open_end]
         msg = f"{log.path} is truncated ({log.info.get('truncated', '')})"
         if cut and not partial:
             raise InputError(f"{msg}, inside segment {cut[-1].index} ({cut[-1].mode} from t={cut[-1].t_start:.1f} s)"
                              f": its end is missing; pass --partial to score what is there")
-        log.warnings.append(msg + ("; the last segment is incomplete" if cut else "; every segment ended before the cut"))
+        log.warnings.append(msg + ("; the last segment is incomplete" if cut
+                                   else "; every segment ended before the cut"))
     if only is not None:
         if not 1 <= only <= len(segs):
             raise InputError(f"{log.path}: --segment {only} does not exist (segments 1..{len(segs)})")
