@@ -23,6 +23,16 @@ CMD_REQUEST_MESSAGE = mavlink.MAV_CMD_REQUEST_MESSAGE
 CMD_REQUEST_CAPS = mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES
 
 
+def one_line(text: str) -> str:
+    """A vehicle's STATUSTEXT as one printable line (NULs dropped, line breaks and runs of spaces folded)."""
+    return " ".join(text.replace("\0", "").split())
+
+
+def refusal(what: str, result: int, reason: str) -> str:
+    """One-line message for a refused command: what, the MAV_RESULT in words and the vehicle's reason."""
+    return f"{what} {RESULTS.get(result, result)} by the vehicle" + (f": {reason}" if reason else "")
+
+
 class Commander:
     """Command service of one vehicle; keeps the last STATUSTEXTs so refusals can be explained."""
 
@@ -30,11 +40,21 @@ class Commander:
         self.link = link
         self.stack: Stack | None = None
         self.texts: deque[tuple[int, str]] = deque(maxlen=20)
+        self._chunks: dict[int, list[str]] = {}
         link.handlers.append(self._on_msg)
 
     def _on_msg(self, msg: Any) -> None:
         if msg.get_type() == "STATUSTEXT" and self.link.is_vehicle(msg):
-            self.texts.append((int(msg.severity), str(msg.text)))
+            text = one_line(str(msg.text))
+            tid = int(getattr(msg, "id", 0) or 0)
+            if tid == 0:
+                self.texts.append((int(msg.severity), text))
+                return
+            # MAVLink 2 splits long texts into 50-byte chunks with one id; the last chunk is shorter than 50.
+            parts = self._chunks.setdefault(tid, [])
+            parts.append(str(msg.text).replace("\0", ""))
+            if len(str(msg.text).encode()) < 50 or len(parts) >= 8:
+                self.texts.append((int(msg.severity), one_line("".join(self._chunks.pop(tid)))))
 
     def recent_text(self, since: int = 0) -> str:
         items = list(self.texts)[since:]
@@ -52,15 +72,21 @@ class Commander:
                 return int(ack.result)
         raise VehicleError(f"no COMMAND_ACK for command {cmd} after {retries} attempts")
 
-    def require(self, what: str, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> None:
-        """Like :meth:`command` but raises :class:`VehicleError` with the vehicle's reason unless accepted."""
+    def attempt(self, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> tuple[int, str]:
+        """Send a command once (with ACK retries); returns (MAV_RESULT, the vehicle's STATUSTEXT reason or "")."""
         mark = len(self.texts)
         result = self.command(cmd, *params, timeout=timeout, retries=retries)
+        reason = ""
         if result != 0:
             self.link.pump(0.05)  # the STATUSTEXT explaining a refusal usually follows the ACK
             reason = self.recent_text(mark)
-            raise VehicleError(f"{what} {RESULTS.get(result, result)} by the vehicle"
-                               + (f": {reason}" if reason else ""))
+        return result, reason
+
+    def require(self, what: str, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> None:
+        """Like :meth:`command` but raises :class:`VehicleError` with the vehicle's reason unless accepted."""
+        result, reason = self.attempt(cmd, *params, timeout=timeout, retries=retries)
+        if result != 0:
+            raise VehicleError(refusal(what, result, reason))
 
     # --- modes and arming ----------------------------------------------------------------------------------
     def set_mode(self, mode: str, timeout: float = 5.0) -> None:
@@ -75,16 +101,6 @@ class Commander:
                 return
             if time.monotonic() > deadline:
                 raise VehicleError(f"vehicle did not enter mode {self.stack.mode_name(custom)}")
-
-    def arm(self, timeout: float = 10.0) -> None:
-        deadline = time.monotonic() + timeout
-        while True:
-            self.require("arming", CMD_ARM, 1.0)
-            hb = self.link.wait(lambda m: m.get_type() == "HEARTBEAT" and m.base_mode & 128, 1.5)
-            if hb is not None:
-                return
-            if time.monotonic() > deadline:
-                raise VehicleError("vehicle did not arm")
 
     def takeoff(self, alt_m: float) -> None:
         self.require("takeoff", CMD_TAKEOFF, 0, 0, 0, float("nan"), float("nan"), float("nan"), alt_m)

@@ -113,6 +113,8 @@ class Link:
         self.target_component = 1
         self.tlog: TlogWriter | None = None
         self.handlers: list[Handler] = []
+        #: Called on every turn of :meth:`pump` (e.g. to keep a setpoint stream alive while waiting for a reply).
+        self.idle: list[Callable[[], None]] = []
         #: Called with (message as decoded from the wire, sent?) for every packet in both directions.
         self.taps: list[Tap] = []
         self._decoder = mavlink.MAVLink(None)
@@ -167,6 +169,8 @@ class Link:
         """Receive and dispatch everything available, waiting up to ``timeout`` s for the first message.
         Returns the number of messages handled."""
         self._own_heartbeat()
+        for hook in list(self.idle):
+            hook()
         count = 0
         deadline = time.monotonic() + timeout
         while True:
@@ -178,8 +182,10 @@ class Link:
                 remaining = deadline - time.monotonic()
                 if count or remaining <= 0:
                     return count
-                self.conn.select(min(remaining, 0.05))
+                self.conn.select(min(remaining, 0.02))
                 self._own_heartbeat()
+                for hook in list(self.idle):
+                    hook()
                 continue
             if msg.get_type() == "BAD_DATA":
                 continue

@@ -4,9 +4,10 @@
   <-> -NED down, east 0. Task states [x, vx, z, vz, theta, theta_dot] (NED pitch = -theta); scored with the
   paper's P(a) (:mod:`ksbo_mav.scoring`), lap 2.
 * ``figure8-ne`` (3-D copters, fact sheet 8): north = A sin(wt), east = B sin(2wt) at a constant height. Task
-  states [north, v_north, east, v_east, up, v_up]; scored by the lap-2 RMS tracking error e (m):
-  ``P = 1 - e / rms_max_m`` (profile ``[score]``, default 1 m), so larger is better and P < 0 means the loop tracks
-  worse than that; an early end scores ``-(1 - (L/n)^2)`` like P(a).
+  states [north, v_north, east, v_east, up, v_up]; scored by the lap-2 RMS tracking error e (m) relative to the
+  campaign's baseline flight: ``P = 1 - e / (ratio * e_baseline)`` (:meth:`Mission.score`), so the baseline
+  scores 0.5 on any vehicle and P < 0 means more than ``ratio`` (2) times worse; an early end scores
+  ``-(1 - (L/n)^2)`` like P(a).
 
 Setpoints carry position + velocity + acceleration (type_mask 0x0C00, frame LOCAL_NED): streamed feed-forward
 isolates the position loop from trajectory shaping (fact sheet 4.2). Holds use position-only targets (0x0DF8),
@@ -28,7 +29,12 @@ from ksbo_mav.scoring import ScoreConfig
 MASK_POS_VEL_ACC = 0x0C00
 MASK_POS = 0x0DF8
 FRAME_LOCAL_NED = 1
-KINDS = {"figure8-xz": "f8", "figure8-ne": "f8h"}  # mission type -> tag of the tlog trial markers
+KINDS = {"figure8-xz": "f8", "figure8-ne": "f8h"}
+#: Telemetry needed to score a 3-D lap: LOCAL_POSITION_NED at >= 10 Hz (vehicle time), no gap > 0.5 s. A ground
+#: station sharing the link may lower the rate we asked for (50 Hz); below this the lap is not scored and the
+#: trial is a link problem, not a gain result.
+MIN_SCORE_RATE_HZ = 10.0
+MAX_SAMPLE_GAP_S = 0.5  # mission type -> tag of the tlog trial markers
 
 
 @dataclass(frozen=True)
@@ -112,19 +118,62 @@ class Mission:
                 np.array([-A * w * w * s, -4 * B * w * w * s2, 0.0]))
 
     # --- score -------------------------------------------------------------------------------------------
-    def score(self, traj: Any) -> dict[str, Any]:
-        """Score dict of a :class:`ksbo_mav.objective.Trajectory` (``P`` first; JSON friendly)."""
+    def score(self, traj: Any, rms_ref: float | None = None) -> dict[str, Any]:
+        """Score dict of a :class:`ksbo_mav.objective.Trajectory` (``P`` first; JSON friendly).
+
+        3-D missions (``figure8-ne``): lap-2 RMS of |measured - commanded| over the samples received, at any
+        telemetry rate of at least :data:`MIN_SCORE_RATE_HZ` with no gap longer than :data:`MAX_SAMPLE_GAP_S`.
+        ``P = 1 - rms / (ratio * rms_ref)``: ``rms_ref`` is the campaign's baseline RMS (the profile's
+        ``[score] rms_ref_m`` if set; a flight with neither is its own reference), ``ratio`` the profile's
+        ``unsafe_rms_ratio`` (default 2). So the baseline scores ``1 - 1/ratio`` (0.5) on every vehicle, however
+        well it tracks, and P < 0 ("unsafe") means tracking more than ``ratio`` times worse than the baseline.
+        """
         if self.kind == "figure8-xz":
             return traj.score(self.score_config()).item()
         n, (lo, hi) = self.steps, self.window
-        sel = (traj.steps >= lo) & (traj.steps < hi)
+        cfg = dict(self.score_section)
+        ratio = float(cfg.get("unsafe_rms_ratio", 2.0))
+        # The state after step k is stamped (k + 1) dt: lap 2 (steps lo..hi-1) is stamps in ((lo + 0.5) dt,
+        # (hi + 0.5) dt].
+        t = np.asarray(traj.t, dtype=float)
+        sel = (t > (lo + 0.5) * self.dt) & (t <= (hi + 0.5) * self.dt)
         err = traj.states[sel][:, (0, 2, 4)] - traj.refs[sel][:, (0, 2, 4)]
-        complete = bool(traj.L >= hi and sel.sum() == hi - lo and np.all(np.isfinite(err)))
-        rms = float(np.sqrt(np.mean(np.sum(err * err, axis=1)))) if complete else None
-        rms_max = float(dict(self.score_section).get("rms_max_m", 1.0))
-        P = 1.0 - rms / rms_max if rms is not None else -(1.0 - (traj.L / n) ** 2)
-        return {"P": P, "rms_lap2_m": rms, "rms_max_m": rms_max, "L": int(traj.L), "L_expected": n,
-                "complete": complete, "safe": bool(P >= 0)}
+        lap_s = (hi - lo) * self.dt
+        count = int(sel.sum())
+        rate = count / lap_s
+        edges = np.concatenate([[lo * self.dt], t[sel], [hi * self.dt]])
+        max_gap = float(np.max(np.diff(edges)))
+        reason = ""
+        if traj.L < n:
+            reason = f"the trial ended after {traj.L} of {n} steps"
+        elif rate < MIN_SCORE_RATE_HZ:
+            reason = (f"LOCAL_POSITION_NED arrived at {rate:.1f} Hz in the scored lap (minimum "
+                      f"{MIN_SCORE_RATE_HZ:g} Hz)")
+        elif max_gap > MAX_SAMPLE_GAP_S:
+            reason = f"a {max_gap:.2f} s gap in LOCAL_POSITION_NED in the scored lap (at most {MAX_SAMPLE_GAP_S:g} s)"
+        elif not np.all(np.isfinite(err)):
+            reason = "samples without a logged setpoint in the scored lap"
+        complete = not reason
+        d = np.sqrt(np.sum(err * err, axis=1)) if count else np.zeros(0)
+        rms = float(np.sqrt(np.mean(d * d))) if complete else None
+        ref = cfg.get("rms_ref_m", rms_ref)
+        ref = float(ref) if ref is not None else rms
+        if rms is not None and ref is not None and ref > 0:
+            P = 1.0 - rms / (ratio * ref)
+        elif rms is not None:
+            P = 1.0
+        else:
+            P = -(1.0 - (min(traj.L, n) / n) ** 2) if traj.L < n else -1.0 / n
+        out = {"P": P, "rms_lap2_m": rms, "rms_ref_m": ref, "unsafe_rms_ratio": ratio, "L": int(traj.L),
+               "L_expected": n, "complete": complete, "safe": bool(P >= 0), "samples": count,
+               "rate_hz": rate, "max_gap_s": max_gap}
+        if complete:
+            out["max_err_m"] = float(d.max())
+            out["rms_h_m"] = float(np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))))
+            out["rms_v_m"] = float(np.sqrt(np.mean(err[:, 2] ** 2)))
+        else:
+            out["incomplete"] = reason
+        return out
 
 
 def task_ref(kind: str, ned: np.ndarray) -> np.ndarray:

@@ -7,8 +7,11 @@ exactly what the tlog holds (:mod:`ksbo_mav.mav.trajectory`), so ``ksbo-mav scor
 
 Aborts: gain-caused (geofence, tilt, tracking error, crash) -> hold, restore, the trial scores as unsafe and the
 campaign goes on (a crashed *simulator* is re-armed; a crashed real vehicle stops the campaign). Pilot mode change,
-link loss, Ctrl-C, unexpected errors -> restore and stop: :class:`TrialStopped` (or KeyboardInterrupt) is raised
-after the trial's record is written and kept in :attr:`MavlinkObjective.last_flight`.
+link loss, telemetry too sparse to score, a failed parameter write, Ctrl-C, unexpected errors -> restore and stop:
+:class:`TrialStopped` (or KeyboardInterrupt) is raised after the trial's record is written and kept in
+:attr:`MavlinkObjective.last_flight`; such a trial says nothing about the gains and the campaign never feeds it to
+the optimiser. Failing to get ready (arming, takeoff, reaching the start) raises
+:class:`~ksbo_mav.mav.guided.PreflightError` before any trial is recorded.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -25,9 +29,14 @@ from ksbo_mav.mav.monitor import GAIN_OUTCOMES, OUTCOMES, Limits, Monitor
 from ksbo_mav.mav.params import VerifyError
 from ksbo_mav.mav.snapshot import fsync_write
 from ksbo_mav.mav.tlog import TlogWriter
-from ksbo_mav.mav.trajectory import TrialRecorder, end_text, start_text
-from ksbo_mav.mav.vehicle import LinkLost, Sample, Vehicle
+from ksbo_mav.mav.trajectory import TrialRecorder, end_text, ref_text, start_text
+from ksbo_mav.mav.vehicle import LinkLost, PreflightError, Vehicle
 from ksbo_mav.objective import Flight, Trajectory
+
+
+#: Outcomes after which the campaign goes on: the flight says something about the gains (a refused write too: the
+#: vehicle will not take that value). Everything else (pilot, link, telemetry, error) stops the campaign.
+CONTINUE_OUTCOMES = ("ok", "verify", *GAIN_OUTCOMES)
 
 
 class TrialStopped(VehicleError):
@@ -72,14 +81,24 @@ class MavlinkObjective:
         self.index = first_index
         self.log = log
         self.last_flight: Flight | None = None
+        #: 3-D missions: the baseline flight's lap-2 RMS; every trial's P is relative to it (Mission.score).
+        self.rms_ref: float | None = None
 
     def __call__(self, x: np.ndarray) -> float:
         return self.fly(x).P
 
     # --- one trial ---------------------------------------------------------------------------------------
     def fly(self, gains: np.ndarray, label: str = "") -> Flight:
+        """Fly one trial. :class:`PreflightError` (nothing flown, nothing recorded) when the vehicle cannot be
+        brought to the figure-8 start; :class:`TrialStopped` after a trial that must end the campaign."""
         v = self.vehicle
         x = v.check_trial_gains(gains, self.baseline)
+        try:
+            v.ensure_airborne(self.log)
+        except PreflightError:
+            raise
+        except VehicleError as exc:  # link trouble while getting ready is not the gains' fault either
+            raise PreflightError(str(exc)) from None
         i, self.index = self.index, self.index + 1
         stem = self.out_dir / f"trial_{i:03d}"
         link = v.link
@@ -87,6 +106,7 @@ class MavlinkObjective:
         rec = TrialRecorder(vehicle=(link.target_system, link.target_component))
         link.taps.append(rec.feed)
         started = time.time()
+        lost0, reasserts0 = v.telemetry.lost, v.telemetry.reasserts
         outcome, message, L, stop = "ok", "", 0, None
         try:
             try:
@@ -107,15 +127,19 @@ class MavlinkObjective:
             link.taps.remove(rec.feed)
             link.tlog.close()
             link.tlog = None
-        flight = self._record(i, stem, x, rec, outcome, message, restored, started, label)
+        link_stats = {"lost_packets": v.telemetry.lost - lost0, "rate_reasserts": v.telemetry.reasserts - reasserts0}
+        flight = self._record(i, stem, x, rec, outcome, message, restored, started, label, link_stats)
         self.last_flight = flight
         if stop is not None:
             raise stop
+        outcome = flight.outcome
         if not restored:
-            raise TrialStopped(f"trial {i}: {message or OUTCOMES[outcome]}; baseline NOT restored - run "
-                               "`ksbo-mav restore` with the snapshot as soon as the vehicle is reachable", flight)
-        if outcome in ("pilot", "link", "error") or (outcome == "crash" and not v.is_sim):
-            raise TrialStopped(f"trial {i} aborted: {message}; baseline gains restored and verified", flight)
+            raise TrialStopped(f"trial {i}: {flight.meta['message'] or outcome_text(outcome)}; baseline NOT "
+                               "restored - run `ksbo-mav restore` with the snapshot as soon as the vehicle is "
+                               "reachable", flight)
+        if outcome not in CONTINUE_OUTCOMES or (outcome == "crash" and not v.is_sim):
+            raise TrialStopped(f"trial {i} aborted ({outcome_text(outcome)}): {flight.meta['message']}; "
+                               "baseline gains restored and verified", flight)
         return flight
 
     def _steps(self, rec: TrialRecorder) -> int:
@@ -124,37 +148,37 @@ class MavlinkObjective:
             return 0
         return int(min(max(0, round((lpn.time_boot_ms - rec.t0) / self.mission.dt_ms)), self.mission.steps))
 
-    def _check(self, s: Sample, ref_ned: np.ndarray | None) -> None:
-        self.vehicle.check_link()
-        bad = self.monitor.check_heartbeat(self.vehicle.heartbeat()) or self.monitor.check_sample(s.lpn, s.att, ref_ned)
+    def _check(self, lpn: Any, ref_ned: np.ndarray | None) -> None:
+        v = self.vehicle
+        bad = self.monitor.check_heartbeat(v.guided.heartbeat) or \
+            self.monitor.check_sample(lpn, v.telemetry.last_att, ref_ned)
         if bad:
             raise _Abort(*bad)
 
     def _run(self, x: np.ndarray, rec: TrialRecorder) -> int:
         v, m = self.vehicle, self.mission
-        v.ensure_airborne(self.log)
+        g = v.guided
+        start = m.start_ned()
         v.write_gains(x)
-        s = v.hold(m.start_ned(), self.settle_s, lambda s: self._check(s, None))
-        t0, n, dt = s.t_ms, m.steps, m.dt_ms
+        settle = max(1, int(round(self.settle_s * m.rate_hz)))
+        g.follow(lambda j: (start, None, None), settle, m.dt_ms, lambda s: self._check(s, None), self.log)
+        t0 = int(v.telemetry.clock.last_ms)
+        n, dt = m.steps, m.dt_ms
+        if self.rms_ref is not None:
+            v.statustext(ref_text(m.tag, self.rms_ref))
         v.statustext(start_text(m.tag, t0, n, dt, m.window[0]))
-        # Each sample is answered with the reference at *its* timestamp (logged with that stamp), so state and
-        # reference are paired at the same instant even when a real vehicle's stream jitters; in lockstep the
-        # stamps are exactly t0 + j*dt.
-        tau = 0
-        while True:
-            j = round(tau / dt)
-            if j >= n:
-                tau = n * dt
-            pos, vel, acc = m.setpoint_at(tau / 1000.0)
-            s = v.exchange(pos, vel, acc, t_ms=t0 + tau)
-            if j >= n:
-                return n
-            tau = s.t_ms - t0
-            self._check(s, m.setpoint_at(min(tau, n * dt) / 1000.0)[0])
+        # Step j's setpoint goes out when the vehicle clock reaches t0 + j*dt, stamped with that time; every
+        # sample is checked against the reference at its own stamp, and scored against the logged setpoints.
+        g.follow(lambda j: m.setpoint_at(j * dt / 1000.0), n, dt,
+                 lambda s: self._check(s, m.setpoint_at(min(max(s.time_boot_ms - t0, 0), n * dt) / 1000.0)[0]),
+                 self.log, resend_s=0.1)
+        g.hold_at(m.setpoint_at(n * dt / 1000.0)[0])  # end on a position-only target (no dead reckoning)
+        return n
 
     def _finish(self, rec: TrialRecorder, outcome: str, L: int) -> bool:
-        """End marker, hold (when it is ours to command), restore the baseline with verification."""
+        """End marker, hold (when it is ours to command), restore the baseline with verification, park."""
         v = self.vehicle
+        g = v.guided
         try:
             if outcome == "link":
                 deadline = time.monotonic() + self.link_wait_s
@@ -162,12 +186,14 @@ class MavlinkObjective:
                     v.link.pump(0.2)
             if rec.t0 is not None:
                 v.statustext(end_text(self.mission.tag, L, outcome))
-            if outcome not in ("pilot", "crash", "link") and v.armed and v.last_lpn is not None:
-                here = np.array([v.last_lpn.x, v.last_lpn.y, v.last_lpn.z])
-                v.exchange(here)  # stop where we are: position-only targets never time out
+            ours = outcome not in ("pilot", "crash", "link") and g.armed
+            if ours and g.position() is not None and outcome != "ok":
+                g.hold_at(g.position())  # stop where we are: position-only targets never time out
             v.restore(self.baseline_values)
-            if outcome in GAIN_OUTCOMES and outcome != "crash" and v.armed:
-                v.hold(np.array([v.last_lpn.x, v.last_lpn.y, v.last_lpn.z]), 1.0)
+            if outcome in GAIN_OUTCOMES and outcome != "crash" and g.armed:
+                g.wait(1.0)  # let the baseline gains settle the vehicle before anything else
+            if g.armed and g.in_mode("guided"):
+                g.park()
             return True
         except KeyboardInterrupt:
             self.log("second Ctrl-C during restore: baseline may not be restored")
@@ -177,27 +203,38 @@ class MavlinkObjective:
             return False
 
     def _record(self, i: int, stem: Path, x: np.ndarray, rec: TrialRecorder, outcome: str, message: str,
-                restored: bool, started: float, label: str) -> Flight:
+                restored: bool, started: float, label: str, link_stats: dict[str, int]) -> Flight:
         n = self.mission.steps
         if rec.t0 is not None and rec.finished:
             traj, info = rec.trajectory("mavlink")
         else:
             traj, info = _empty_trajectory(), {"L": 0, "outcome": outcome}
-        score = self.mission.score(traj)
+        score = self.mission.score(traj, rms_ref=info.get("rms_ref"))
         if outcome == "ok" and not score["complete"]:
-            outcome, message = "link", f"telemetry gaps in the scored lap ({info.get('unfilled')})"
+            # Not the gains' fault: the lap could not be measured. Say why, and whether packets were lost.
+            why = score.get("incomplete") or f"telemetry gaps in the scored lap ({info.get('unfilled')})"
+            lost = link_stats["lost_packets"]
+            cause = (f"{lost} packet(s) lost on the link (sequence gaps)" if lost else
+                     "no packet was lost (sequence numbers complete): the vehicle sent less - another ground "
+                     "station's stream request, or a saturated link")
+            outcome, message = "telemetry", f"{why}; {cause}"
         if outcome != "ok":
             score["P"] = min(float(score["P"]), -1.0 / n)  # an aborted trial is unsafe, whatever its length
             score["safe"] = False
-        meta = {"trial": i, "label": label, "outcome": outcome, "outcome_text": OUTCOMES[outcome],
+        meta = {"trial": i, "label": label, "outcome": outcome, "outcome_text": outcome_text(outcome),
                 "message": message, "restored": restored, "tlog": str(stem.with_suffix(".tlog")),
                 "record": str(stem.with_suffix(".json")), "wall_s": time.time() - started,
-                "vehicle_values": self.vehicle.gains.to_vehicle(x), "trajectory": info}
+                "vehicle_values": self.vehicle.gains.to_vehicle(x), "trajectory": info, "link": link_stats}
         doc = {"gains": x.tolist(), "names": self.profile.names, "score": score, **meta}
         fsync_write(stem.with_suffix(".json"), dumps(doc, indent=1))
         if outcome != "ok":
-            self.log(f"trial {i} aborted ({OUTCOMES[outcome]}): {message}")
+            self.log(f"trial {i} aborted ({outcome_text(outcome)}): {message}")
         return Flight(gains=x, trajectory=traj, score=score, outcome=outcome, meta=meta)
+
+
+def outcome_text(outcome: str) -> str:
+    return {**OUTCOMES, "telemetry": "telemetry too sparse to score",
+            "preflight": "could not get ready to fly (arming / takeoff / positioning)"}.get(outcome, outcome)
 
 
 def _empty_trajectory() -> Trajectory:

@@ -32,6 +32,8 @@ class Stack:
     modes: Mapping[str, int]  # "guided" / "hold" / "land" -> custom_mode
     mode_names: Mapping[int, str]
     px4_mode_params: bool = False  # DO_SET_MODE p2 = main mode, p3 = sub mode (PX4)
+    #: guided mode needs a running setpoint stream (PX4 OFFBOARD): stream before entering, park when stopping
+    needs_stream: bool = False
 
     def mode_name(self, custom_mode: int) -> str:
         return self.mode_names.get(int(custom_mode), str(custom_mode))
@@ -52,7 +54,7 @@ KSBO_SIM = Stack("ksbo-sim", MAV_AUTOPILOT_GENERIC, "c_cast", {"guided": 4, "hol
 _PX4_NAMES = {393216: "OFFBOARD", 50593792: "AUTO.LOITER", 196608: "POSCTL", 100925440: "AUTO.LAND",
               33816576: "AUTO.TAKEOFF", 131072: "ALTCTL", 65536: "MANUAL"}
 PX4 = Stack("px4", MAV_AUTOPILOT_PX4, "bytewise", {"guided": 393216, "hold": 50593792, "land": 100925440},
-            _PX4_NAMES, px4_mode_params=True)
+            _PX4_NAMES, px4_mode_params=True, needs_stream=True)
 
 
 @dataclass(frozen=True)

@@ -32,12 +32,19 @@ from ksbo_mav.objective import Trajectory
 
 MAX_GAP = 5
 START_RE = re.compile(r"^ksbo (f8h?) start t0=(\d+) n=(\d+) dt=(\d+) w=(\d+)$")
+REF_RE = re.compile(r"^ksbo f8h? ref rms=([0-9.eE+-]+)$")
 END_RE = re.compile(r"^ksbo f8h? end L=(\d+) (\S+)$")
 _TAG_KIND = {tag: kind for kind, tag in KINDS.items()}
 
 
 def start_text(tag: str, t0_ms: int, n: int, dt_ms: int, w: int) -> str:
     return f"ksbo {tag} start t0={t0_ms} n={n} dt={dt_ms} w={w}"
+
+
+def ref_text(tag: str, rms_ref: float) -> str:
+    """Marker sent after the start marker: the campaign's reference RMS (its baseline flight's lap-2 RMS), so
+    the score recomputed from the tlog is the live score."""
+    return f"ksbo {tag} ref rms={rms_ref:.6g}"
 
 
 def end_text(tag: str, L: int, outcome: str) -> str:
@@ -61,6 +68,9 @@ class TrialRecorder:
     att: dict[int, np.ndarray] = field(default_factory=dict)
     act: dict[int, np.ndarray] = field(default_factory=dict)
     refs: dict[int, np.ndarray] = field(default_factory=dict)
+    rms_ref: float | None = None
+    lost: int = 0  # vehicle packets lost on the link during the trial (MAVLink sequence gaps)
+    _seq: dict[int, int] = field(default_factory=dict)
 
     def feed(self, msg: Any, sent: bool) -> None:
         kind = msg.get_type()
@@ -76,6 +86,11 @@ class TrialRecorder:
         if self.t0 is None or self.L is not None or self.vehicle is None \
                 or (msg.get_srcSystem(), msg.get_srcComponent()) != self.vehicle:
             return
+        comp, seq = msg.get_srcComponent(), msg.get_seq()
+        if comp in self._seq:
+            gap = (seq - self._seq[comp] - 1) % 256
+            self.lost += gap if gap < 128 else 0
+        self._seq[comp] = seq
         if kind == "LOCAL_POSITION_NED":
             self.pos[int(msg.time_boot_ms)] = _ned(msg)
         elif kind == "ATTITUDE":
@@ -92,6 +107,10 @@ class TrialRecorder:
             self.kind = _TAG_KIND[m.group(1)]
             self.t0, self.n, self.dt, self.w = t0, n, dt, w
             return
+        m = REF_RE.match(text)
+        if m and self.t0 is not None and self.L is None:
+            self.rms_ref = float(m.group(1))
+            return
         m = END_RE.match(text)
         if m and self.t0 is not None and self.L is None:
             self.L, self.outcome = int(m.group(1)), m.group(2)
@@ -107,6 +126,8 @@ class TrialRecorder:
         if self.L is None:
             raise InputError("the trial has no end marker ('ksbo f8 end ...'): the log stops mid-trial")
         L = min(self.L, self.n)
+        if self.kind == "figure8-ne":
+            return self._by_sample(L, source)
         col = lambda d, w: _column(d, self.t0, self.dt, L, w)  # noqa: E731
         planar = self.kind == "figure8-xz"
         cols = {"pos": col(self.pos, 6), "ref": col(self.refs, 6)}
@@ -126,6 +147,32 @@ class TrialRecorder:
         info = {"kind": self.kind, "t0_ms": self.t0, "n": self.n, "dt_ms": self.dt, "window": [self.w, self.n],
                 "L": L, "outcome": self.outcome,
                 "missing": missing, "filled": filled, "unfilled": still, "inputs": have_act}
+        return traj, info
+
+
+    def _by_sample(self, L: int, source: str) -> tuple[Trajectory, dict[str, Any]]:
+        """3-D missions: every received sample, paired with the logged setpoints interpolated to its own stamp
+        (setpoints go out every step, so linear interpolation is within a_max dt^2 / 8 = 5e-5 m of the
+        reference). Works at any telemetry rate; :meth:`Mission.score` decides whether the rate suffices."""
+        t0, dt = int(self.t0), self.dt
+        T = np.array(sorted(t for t in self.pos if t0 < t <= t0 + L * dt), dtype=float)
+        rt = np.array(sorted(self.refs), dtype=float)
+        pos = np.array([self.pos[int(t)] for t in T]).reshape(-1, 6)
+        ref = np.full((len(T), 6), np.nan)
+        if len(rt) >= 2 and len(T):
+            rv = np.array([self.refs[int(t)] for t in rt])
+            inside = (T >= rt[0]) & (T <= rt[-1])
+            for c in range(6):
+                ref[inside, c] = np.interp(T[inside], rt, rv[:, c])
+        nan_att = np.full(4, np.nan)
+        states = np.array([task_state(self.kind, p, nan_att) for p in pos]).reshape(-1, 6)
+        refs = np.array([task_ref(self.kind, r) for r in ref]).reshape(-1, 6)
+        steps = np.rint((T - t0) / dt).astype(int) - 1
+        traj = Trajectory(t=(T - t0) / 1000.0, steps=steps, states=states, refs=refs, inputs=None, L=L,
+                          source=source)
+        info = {"kind": self.kind, "t0_ms": t0, "n": self.n, "dt_ms": dt, "window": [self.w, self.n], "L": L,
+                "outcome": self.outcome, "samples": int(len(T)), "setpoints": int(len(rt)),
+                "lost_packets": int(self.lost), "rms_ref": self.rms_ref}
         return traj, info
 
 

@@ -1,0 +1,98 @@
+"""Gain service: the tuned parameters of one vehicle, trial writes inside the trust region, verified restores.
+
+Writes go only to the profile's gains, inside the profile box *and* the trust region around the baseline, each
+verified by its echo; a restore is confirmed by a fresh read of every parameter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ksbo_mav.errors import InputError, VehicleError
+from ksbo_mav.mav.params import ParamClient
+from ksbo_mav.mav.stacks import GainMap
+from ksbo_mav.profiles import Profile
+
+
+def trust_region(profile: Profile, baseline: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where trial gains may go: the profile box, at most ``max_step_fraction`` of each gain's range from the
+    baseline and, with ``max_ratio`` r, inside [baseline / r, baseline * r] for positive baselines."""
+    b = profile.bounds
+    tr = profile.section("trust_region")
+    frac = float(tr.get("max_step_fraction", 1.0))
+    w = b[:, 1] - b[:, 0]
+    lo, hi = np.maximum(b[:, 0], baseline - frac * w), np.minimum(b[:, 1], baseline + frac * w)
+    if "max_ratio" in tr:
+        r = float(tr["max_ratio"])
+        pos = baseline > 0
+        lo = np.where(pos, np.maximum(lo, baseline / r), lo)
+        hi = np.where(pos, np.minimum(hi, baseline * r), hi)
+    return lo, hi
+
+
+class Gains:
+    """The profile's gains on one vehicle (``map`` translates gain vectors to vehicle parameters)."""
+
+    def __init__(self, params: ParamClient, profile: Profile, gain_map: GainMap) -> None:
+        self.params, self.profile, self.map = params, profile, gain_map
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Vehicle parameter names of the tuned gains."""
+        return self.map.vehicle
+
+    def values(self) -> np.ndarray:
+        """Gain vector from the downloaded table (no traffic)."""
+        return self.map.from_vehicle({n: self.params.table[n].value for n in self.map.vehicle})
+
+    def read(self) -> np.ndarray:
+        """Gain vector from a fresh read of every tuned parameter."""
+        return self.map.from_vehicle({n: self.params.read(n) for n in self.map.vehicle})
+
+    def check_trial(self, x: np.ndarray, baseline: np.ndarray) -> np.ndarray:
+        """Absolute box of the profile and the trust region around the baseline; InputError otherwise."""
+        b = self.profile.bounds
+        width = b[:, 1] - b[:, 0]
+        x = np.asarray(x, dtype=float)
+        if x.shape == (self.profile.dim,) and np.all(np.isfinite(x)):
+            # An optimiser's lower + u (upper - lower) can overshoot a bound by an ulp: that is the bound.
+            tol = 1e-9 * width
+            x = np.where((x > b[:, 1]) & (x <= b[:, 1] + tol), b[:, 1], x)
+            x = np.where((x < b[:, 0]) & (x >= b[:, 0] - tol), b[:, 0], x)
+        x = self.profile.check_gains(x)
+        lo, hi = trust_region(self.profile, baseline)
+        tol = 1e-9 * width
+        far = (x < lo - tol) | (x > hi + tol)
+        if np.any(far):
+            i = int(np.flatnonzero(far)[0])
+            raise InputError(f"gain {self.profile.names[i]} = {x[i]:g} is outside the trust region "
+                             f"[{lo[i]:g}, {hi[i]:g}] around the baseline {baseline[i]:g}")
+        return np.clip(x, lo, hi)
+
+    def write(self, x: np.ndarray) -> None:
+        """Set-and-verify every tuned parameter (callers check bounds first)."""
+        for name, value in self.map.to_vehicle(x).items():
+            self.params.set_verified(name, value)
+
+    def write_values(self, values: dict[str, float], retries: int = 3) -> None:
+        for name, value in values.items():
+            if name not in self.map.vehicle:
+                raise InputError(f"{name} is not one of the tuned parameters; refusing to write it")
+            self.params.set_verified(name, value, retries=retries)
+
+    def restore(self, values: dict[str, float], attempts: int = 3, retries: int = 8) -> None:
+        """Write the baseline and confirm it with a fresh read of every parameter; VehicleError if impossible.
+
+        More retries than a trial write: a restore is the one write that must get through a lossy link."""
+        last: Exception | None = None
+        for _ in range(attempts):
+            try:
+                self.write_values(values, retries=retries)
+                wrong = [n for n, v in values.items()
+                         if not np.isclose(self.params.read(n, retries=retries), v, rtol=1e-6, atol=1e-7)]
+                if not wrong:
+                    return
+                last = VehicleError(f"read-back differs for {', '.join(wrong)}")
+            except VehicleError as exc:
+                last = exc
+        raise VehicleError(f"baseline NOT restored: {last}")

@@ -1,0 +1,299 @@
+"""Guided (ArduPilot) / offboard (PX4) control: arming, takeoff, holds, landing and position-target streaming.
+
+Every wait runs on the vehicle's clock (:class:`~ksbo_mav.mav.clock.VehicleClock`); a lockstep simulator is
+stepped instead. Differences between stacks that matter here:
+
+* ArduCopter (and the built-in simulator): GUIDED + arm + MAV_CMD_NAV_TAKEOFF; a position-only target holds
+  forever, so nothing has to stream between trials.
+* PX4: OFFBOARD is accepted only while setpoints already stream (> 1 s) and is left (failsafe) when they stop, so
+  the client streams before the switch and *parks* the vehicle in AUTO.LOITER whenever it stops streaming (between
+  trials, while the optimiser thinks). A takeoff is a position target above the vehicle, streamed in OFFBOARD.
+  Arming is refused ("temporarily rejected") until the preflight checks pass: the client retries and reports the
+  vehicle's reason on one line.
+
+While a hold target is set (:meth:`Guided.hold_at`), the link's idle hook re-sends it at 20 Hz during *every*
+wait — command acknowledgements and parameter echoes included — so the stream never lapses.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ksbo_mav.errors import VehicleError
+from ksbo_mav.mav.clock import ClockStalled
+from ksbo_mav.mav.commands import CMD_ARM, CMD_TAKEOFF, Commander, refusal
+from ksbo_mav.mav.link import Link
+from ksbo_mav.mav.mission import FRAME_LOCAL_NED, MASK_POS, MASK_POS_VEL_ACC
+from ksbo_mav.mav.stacks import Stack
+from ksbo_mav.mav.telemetry import Telemetry
+
+CMD_SIM_STEP = 31011  # built-in simulator, lockstep: advance p1 seconds
+KEEPALIVE_S = 0.05  # wall seconds between re-sent hold targets
+PRESTREAM_S = 1.5  # vehicle seconds of setpoints before asking PX4 for OFFBOARD (it wants > 1 s)
+
+
+class LinkLost(VehicleError):
+    """No heartbeat / telemetry from the vehicle for longer than the profile's timeout."""
+
+
+class PreflightError(VehicleError):
+    """Arming, takeoff or positioning failed: nothing to do with the gains being tuned."""
+
+
+class Guided:
+    """Position control of one vehicle in the stack's guided/offboard mode.
+
+    Args:
+        heartbeat_timeout: wall seconds without heartbeat or vehicle-clock progress that count as a lost link
+            (the profile's ``[safety] heartbeat_timeout_s``: the one place this timeout comes from).
+        lockstep: the built-in simulator in lockstep (time advances only when the client steps it).
+    """
+
+    def __init__(self, link: Link, cmd: Commander, stack: Stack, tel: Telemetry, heartbeat_timeout: float,
+                 lockstep: bool = False) -> None:
+        self.link, self.cmd, self.stack, self.tel = link, cmd, stack, tel
+        self.heartbeat_timeout, self.lockstep = heartbeat_timeout, lockstep
+        self.parked = False  # PX4: we put it in hold mode between streams
+        self._hold: np.ndarray | None = None
+        self._last_keep = 0.0
+        if lockstep:
+            tel.clock.max_extrapolation_ms = 0.0  # lockstep time is frozen between steps
+        link.idle.append(self._keepalive)
+
+    # --- state -------------------------------------------------------------------------------------------------
+    @property
+    def heartbeat(self) -> Any:
+        return self.link.last_heartbeat
+
+    @property
+    def armed(self) -> bool:
+        hb = self.heartbeat
+        return bool(hb is not None and hb.base_mode & 128)
+
+    def in_mode(self, mode: str) -> bool:
+        hb = self.heartbeat
+        return hb is not None and int(hb.custom_mode) == self.stack.modes[mode]
+
+    def position(self) -> np.ndarray | None:
+        lpn = self.tel.last_lpn
+        return None if lpn is None else np.array([lpn.x, lpn.y, lpn.z], dtype=float)
+
+    def height(self) -> float:
+        lpn = self.tel.last_lpn
+        return float("nan") if lpn is None else -float(lpn.z)
+
+    def check_link(self) -> None:
+        age = self.link.heartbeat_age()
+        if age > self.heartbeat_timeout:
+            raise LinkLost(f"no heartbeat from the vehicle for {age:.1f} s")
+
+    # --- wire --------------------------------------------------------------------------------------------------
+    def send(self, pos: np.ndarray, vel: np.ndarray | None = None, acc: np.ndarray | None = None,
+             t_ms: float | None = None) -> None:
+        """One SET_POSITION_TARGET_LOCAL_NED: position-only when ``vel`` is None, else pos+vel+acc."""
+        link = self.link
+        if t_ms is None:
+            t_ms = self.tel.clock.last_ms or 0
+        if vel is None:
+            mask, vel, acc = MASK_POS, np.zeros(3), np.zeros(3)
+        else:
+            mask = MASK_POS_VEL_ACC
+            acc = np.zeros(3) if acc is None else acc
+        link.send(link.mav.set_position_target_local_ned_encode(
+            int(t_ms) & 0xFFFFFFFF, link.target_system, link.target_component, FRAME_LOCAL_NED, mask,
+            *map(float, pos), *map(float, vel), *map(float, acc), 0.0, 0.0))
+
+    def hold_at(self, pos: np.ndarray | None) -> None:
+        """Hold a position (NED): sent now and re-sent at 20 Hz during every wait; None stops re-sending."""
+        self._hold = None if pos is None else np.asarray(pos, dtype=float).copy()
+        if self._hold is not None and not self.lockstep:  # in lockstep each setpoint is a simulator step
+            self.send(self._hold)
+            self._last_keep = time.monotonic()
+
+    def _keepalive(self) -> None:
+        if self._hold is None or self.lockstep:
+            return
+        now = time.monotonic()
+        if now - self._last_keep >= KEEPALIVE_S:
+            self._last_keep = now
+            self.send(self._hold)
+
+    # --- time --------------------------------------------------------------------------------------------------
+    def wait(self, seconds: float, until: Callable[[], bool] | None = None) -> bool:
+        """Let ``seconds`` of vehicle time pass, stopping early once ``until()`` holds (returns whether it held;
+        True without a condition). :class:`LinkLost` if the vehicle's clock or heartbeat stops."""
+        if self.lockstep:
+            return self._wait_lockstep(seconds, until)
+
+        def pump(t: float) -> None:
+            self.link.pump(t)
+            self.check_link()
+
+        try:
+            return self.tel.clock.wait(seconds, pump, until, stall_s=self.heartbeat_timeout)
+        except ClockStalled as exc:
+            raise LinkLost(str(exc)) from None
+
+    def _wait_lockstep(self, seconds: float, until: Callable[[], bool] | None) -> bool:
+        chunk, elapsed = 0.5, 0.0
+        while elapsed < seconds:
+            if until is not None and until():
+                return True
+            hold = self._hold
+            if hold is not None:
+                self.send(hold)  # one step with the hold target, then the rest of the chunk
+            self.cmd.require("simulator step", CMD_SIM_STEP, chunk, timeout=5.0)
+            self.link.pump(0.0)
+            self.check_link()
+            elapsed += chunk
+        return True if until is None else bool(until())
+
+    # --- streaming ---------------------------------------------------------------------------------------------
+    def follow(self, setpoint: Callable[[int], tuple[np.ndarray, np.ndarray | None, np.ndarray | None]], n: int,
+               dt_ms: int, on_sample: Callable[[Any], None], log: Callable[[str], None] = lambda s: None,
+               resend_s: float = 0.1) -> int:
+        """Stream setpoints ``setpoint(j)`` for j = 0..n, each sent once when the vehicle clock reaches
+        ``t0 + j*dt_ms`` (t0 = now; stamped with that time), none skipped: if the client falls behind, the due ones
+        go out in order. ``on_sample`` sees every new LOCAL_POSITION_NED (it may raise to abort). Returns t0 once a
+        sample stamped at or after ``t0 + n*dt_ms`` has arrived.
+
+        In lockstep each setpoint is one simulator step; a setpoint with no answer within ``resend_s`` is re-sent
+        (a lost packet must not stall the simulator).
+        """
+        clock = self.tel.clock
+        if not clock.valid:
+            raise LinkLost("no timestamped telemetry from the vehicle")
+        t0 = int(clock.last_ms)
+        fresh: list[Any] = []
+        self.tel.on_sample.append(fresh.append)
+        self.hold_at(None)
+        j, last_send = 0, time.monotonic()
+        try:
+            while True:
+                due = min(n, int((clock.now_ms() - t0) // dt_ms))
+                while j <= due:
+                    pos, vel, acc = setpoint(j)
+                    self.send(pos, vel, acc, t_ms=t0 + j * dt_ms)
+                    j, last_send = j + 1, time.monotonic()
+                while fresh:
+                    on_sample(fresh.pop(0))
+                # (in lockstep the answer to step n, stamped one step later, is awaited too: else it would
+                # arrive during the next stream and shift that stream's steps by one)
+                if j > n and clock.last_ms >= t0 + (n + self.lockstep) * dt_ms:
+                    return t0
+                if self.lockstep and time.monotonic() - last_send > resend_s:
+                    pos, vel, acc = setpoint(j - 1)
+                    self.send(pos, vel, acc, t_ms=t0 + (j - 1) * dt_ms)
+                    last_send = time.monotonic()
+                self.link.pump(0.002)
+                self.check_link()
+                stalled = time.monotonic() - clock.last_wall
+                if stalled > self.heartbeat_timeout:
+                    raise LinkLost(f"no telemetry from the vehicle for {stalled:.1f} s")
+                self.tel.keep_rates(log)
+        finally:
+            self.tel.on_sample.remove(fresh.append)
+
+    # --- modes and arming --------------------------------------------------------------------------------------
+    def enter(self, mode: str) -> None:
+        """Switch mode; for guided on a stack that needs a running stream, stream the hold target first."""
+        if mode == "guided" and self.stack.needs_stream:
+            if self._hold is None:
+                pos = self.position()
+                if pos is None:
+                    raise PreflightError("no position estimate yet: cannot start the setpoint stream")
+                self.hold_at(pos)
+            if not self.in_mode("guided"):
+                self.wait(PRESTREAM_S)
+        self.cmd.set_mode(mode)
+        self.parked = False
+
+    def park(self) -> None:
+        """After a stream: PX4 goes to hold mode (its OFFBOARD would fail-safe without setpoints); elsewhere the
+        last position-only target holds by itself."""
+        if self.stack.needs_stream and self.armed and self.in_mode("guided"):
+            self.cmd.set_mode("hold")
+            self.parked = True
+        self.hold_at(None)
+
+    def arm(self, timeout_s: float = 90.0) -> None:
+        """Arm, retrying while the vehicle says "temporarily rejected" / "failed" (preflight checks still running,
+        no position estimate yet), within ``timeout_s`` of vehicle time; the vehicle's reason on one line."""
+        last = ""
+        start = self.tel.clock.last_ms if self.tel.clock.valid else None
+        while True:
+            result, reason = self.cmd.attempt(CMD_ARM, 1.0)
+            if result == 0:
+                if self.wait(3.0, lambda: self.armed):
+                    return
+                last = "accepted, but the heartbeat never showed the vehicle armed"
+            elif result in (1, 4):
+                last = refusal("arming", result, reason)
+            else:
+                raise PreflightError(refusal("arming", result, reason))
+            now = self.tel.clock.last_ms if self.tel.clock.valid else None
+            if start is not None and now is not None and now - start > timeout_s * 1000:
+                raise PreflightError(f"vehicle did not arm within {timeout_s:g} s: {last}")
+            self.wait(1.0)
+
+    def ensure_airborne(self, alt: float, start: np.ndarray, tol: float, settle_s: float = 2.0,
+                        log: Callable[[str], None] = lambda s: None) -> None:
+        """Armed in guided/offboard, hovering at ``start`` (NED; within ``tol`` m, then ``settle_s`` s of vehicle
+        time holding there); arms and takes off from the ground if needed.
+
+        An armed vehicle in a mode that is neither guided nor hold is the pilot's: the tuner refuses.
+        :class:`PreflightError` for any failure here (it is never the gains' fault).
+        """
+        hb = self.link.wait_heartbeat(self.heartbeat_timeout)
+        mine = (self.stack.modes["guided"], self.stack.modes["hold"])
+        if hb.base_mode & 128 and int(hb.custom_mode) not in mine:
+            raise PreflightError(f"vehicle is armed in mode {self.stack.mode_name(hb.custom_mode)}; switch it to "
+                                 f"{self.stack.mode_name(mine[0])} (or land it) before tuning")
+        if not hb.base_mode & 128:
+            self.takeoff(alt, log)
+        self.hold_at(start)
+        if not self.in_mode("guided"):
+            self.enter("guided")
+        if not self.wait(60.0, lambda: self._near(start, tol)):
+            raise PreflightError(f"the vehicle did not come within {tol:g} m of the figure-8 start in 60 s "
+                                 f"(at {np.round(self.position(), 2)})")
+        self.wait(settle_s)
+
+    def takeoff(self, alt: float, log: Callable[[str], None]) -> None:
+        log(f"arming and taking off to {alt:g} m")
+        if not self.wait(120.0, lambda: self.tel.last_lpn is not None):
+            raise PreflightError("no position estimate (LOCAL_POSITION_NED) after 120 s: GPS / EKF not ready")
+        here = self.position()
+        assert here is not None
+        if self.stack.needs_stream:  # PX4: a position target above the vehicle, in OFFBOARD, then arm
+            self.hold_at(np.array([here[0], here[1], -alt]))
+            self.enter("guided")
+            self.arm()
+        else:
+            self.hold_at(None)
+            self.enter("guided")
+            self.arm()
+            result, reason = self.cmd.attempt(CMD_TAKEOFF, 0, 0, 0, float("nan"), float("nan"), float("nan"), alt)
+            if result != 0:
+                raise PreflightError(refusal("takeoff", result, reason))
+        if not self.wait(30.0 + 4.0 * alt, lambda: self.height() > 0.9 * alt):
+            raise PreflightError(f"takeoff did not reach {0.9 * alt:.1f} m (at {self.height():.2f} m)")
+
+    def _near(self, pos: np.ndarray, tol: float) -> bool:
+        here = self.position()
+        return here is not None and float(np.linalg.norm(here - pos)) < tol
+
+    def land(self, timeout_s: float = 120.0) -> None:
+        """LAND, then wait on the vehicle clock until the heartbeat shows it disarmed; VehicleError otherwise."""
+        if not self.armed:
+            return
+        self.hold_at(None)
+        self.cmd.set_mode("land")
+        self.parked = False
+        if not self.wait(timeout_s, lambda: not self.armed):
+            raise VehicleError(f"the vehicle did not land and disarm within {timeout_s:g} s of vehicle time "
+                               f"(height {self.height():.2f} m)")

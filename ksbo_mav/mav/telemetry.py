@@ -1,0 +1,103 @@
+"""Telemetry service: the vehicle's latest state, its clock, stream rates and packet loss.
+
+Stream rates are requested with SET_MESSAGE_INTERVAL only. REQUEST_DATA_STREAM would change ArduPilot's saved
+``MAVn_*`` stream-rate parameters (left changed after the campaign); SET_MESSAGE_INTERVAL changes nothing stored.
+A ground station sharing the link may still send REQUEST_DATA_STREAM, which resets our intervals to its stream
+rate (ArduPilot documents this): :meth:`Telemetry.keep_rates` re-asserts them whenever the measured rate falls
+below what we asked for, and :meth:`Telemetry.rate_hz` measures the rate actually received, on vehicle time.
+
+Lost packets are told apart from a slow client by MAVLink sequence numbers: a gap in the vehicle's ``seq`` is a
+packet lost on the link; a late answer with no gap is the client (or the machine) being slow.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+from ksbo_mav.mav.clock import VehicleClock
+from ksbo_mav.mav.commands import Commander
+from ksbo_mav.mav.link import Link
+
+MSG_ATTITUDE, MSG_LPN, MSG_ACTUATOR = 30, 32, 375
+
+
+
+
+class Telemetry:
+    """Latest LOCAL_POSITION_NED / ATTITUDE, the vehicle clock, LPN rate and sequence-gap counts."""
+
+    def __init__(self, link: Link, cmd: Commander, rate_hz: float) -> None:
+        self.link, self.cmd, self.rate_wanted = link, cmd, float(rate_hz)
+        self.clock = VehicleClock()
+        self.last_lpn: Any = None
+        self.last_att: Any = None
+        self.lost = 0  # packets lost on the link (sequence gaps in the vehicle's messages)
+        self.received = 0
+        self._seq: dict[int, int] = {}
+        self._lpn_stamps: deque[int] = deque(maxlen=256)
+        self._last_assert_ms = -1e18
+        self.reasserts = 0
+        self.on_sample: list[Callable[[Any], None]] = []
+        link.handlers.append(self._on_msg)
+
+    def _on_msg(self, msg: Any) -> None:
+        if not self.link.is_vehicle(msg):
+            return
+        self.received += 1
+        comp = msg.get_srcComponent()
+        seq = msg.get_seq()
+        if comp in self._seq:
+            gap = (seq - self._seq[comp] - 1) % 256
+            if gap < 128:  # a large "gap" is a reordered / duplicated packet, not a loss
+                self.lost += gap
+        self._seq[comp] = seq
+        self.clock.feed(msg)
+        kind = msg.get_type()
+        if kind == "LOCAL_POSITION_NED":
+            if self.last_lpn is None or msg.time_boot_ms > self.last_lpn.time_boot_ms:
+                self.last_lpn = msg
+                self._lpn_stamps.append(int(msg.time_boot_ms))
+                for cb in list(self.on_sample):
+                    cb(msg)
+        elif kind == "ATTITUDE":
+            self.last_att = msg
+
+    # --- rates ---------------------------------------------------------------------------------------------
+    def request_rates(self) -> bool:
+        """SET_MESSAGE_INTERVAL for LOCAL_POSITION_NED and ATTITUDE at the mission rate; False if refused."""
+        period_us = 1e6 / self.rate_wanted
+        ok = all([self.cmd.set_interval(m, period_us) for m in (MSG_LPN, MSG_ATTITUDE)])
+        self.cmd.set_interval(MSG_ACTUATOR, period_us)  # optional (thrusts for P(a)'s input term); not on SITLs
+        self._last_assert_ms = self.clock.last_ms if self.clock.valid else -1e18
+        return ok
+
+    def rate_hz(self, window_ms: float = 1000.0) -> float | None:
+        """LOCAL_POSITION_NED samples per second of vehicle time over the last ``window_ms`` (None: too few)."""
+        if not self._lpn_stamps:
+            return None
+        newest = self._lpn_stamps[-1]
+        inside = [t for t in self._lpn_stamps if newest - t <= window_ms]
+        if len(inside) < 3 or inside[-1] == inside[0]:
+            return None
+        return (len(inside) - 1) * 1000.0 / (inside[-1] - inside[0])
+
+    def keep_rates(self, log: Callable[[str], None] = lambda s: None) -> None:
+        """Re-assert the intervals (at most every 2 s of vehicle time) when the measured rate has dropped below
+        80 % of the wanted rate, e.g. because another ground station requested its own stream rates."""
+        r = self.rate_hz()
+        if r is None or r >= 0.8 * self.rate_wanted or not self.clock.valid:
+            return
+        if self.clock.last_ms - self._last_assert_ms < 2000:
+            return
+        self.reasserts += 1
+        if self.reasserts == 1:
+            log(f"LOCAL_POSITION_NED arrives at {r:.0f} Hz (asked {self.rate_wanted:.0f} Hz): another ground "
+                "station's stream request may have reset it; re-asserting the message intervals")
+        link = self.link
+        period_us = 1e6 / self.rate_wanted
+        for m in (MSG_LPN, MSG_ATTITUDE):  # fire and forget: waiting for the ACK would stall the setpoint stream
+            link.send(link.mav.command_long_encode(link.target_system, link.target_component,
+                                                   511, 0, m, period_us, 0, 0, 0, 0, 0))
+        self._last_assert_ms = self.clock.last_ms
