@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.errors import InputError, VehicleError
+from ksbo_mav.errors import InputError, KsboError, UnsafeStartError, VehicleError
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.objective import MavlinkObjective, TrialStopped
 from ksbo_mav.mav.snapshot import Snapshot, fsync_write, load_snapshot, write_param_files, write_snapshot
@@ -48,6 +48,8 @@ class CampaignConfig:
     accept: bool = False
     end: str = "land"  # "land" or "hold"
     settle_s: float = 1.0
+    sysid: int | None = None  # our own MAVLink ids (None: the link's defaults)
+    compid: int | None = None
     safety: dict[str, float] = field(default_factory=dict)
     options: dict[str, Any] = field(default_factory=dict)
 
@@ -106,8 +108,11 @@ def opt_bounds(profile: Any, x0: np.ndarray) -> np.ndarray:
 
 
 def _entry(kind: str, f: Flight) -> dict[str, Any]:
+    """Journal line of a flown trial. ``kind`` "failed": a trial that ended for a reason unrelated to the gains
+    (pilot, link, telemetry): kept for the record, never given to the optimiser."""
     return {"kind": kind, "trial": f.meta["trial"], "x": [float(v) for v in f.gains], "P": float(f.P),
-            "outcome": f.outcome, "record": f.meta["record"], "restored": f.meta["restored"]}
+            "outcome": f.outcome, "record": f.meta["record"], "restored": f.meta["restored"],
+            "rms": f.score.get("rms_lap2_m")}
 
 
 class Campaign:
@@ -120,6 +125,7 @@ class Campaign:
         self.dir = Path(cfg.dir)
         self.vehicle: Vehicle | None = None
         self.objective: MavlinkObjective | None = None
+        self.baseline_trial: int | None = None
 
     # --- setup -------------------------------------------------------------------------------------------
     def _load_or_create(self, dry_run: bool) -> tuple[Snapshot | None, dict[str, float]]:
@@ -225,11 +231,29 @@ class Campaign:
             fresh = f is not None and f.meta.get("trial") == self.objective.index - 1 and \
                 not any(e["trial"] == f.meta["trial"] for e in journal.entries[-1:])
             if fresh:
-                journal.append(_entry(kind, f))
+                # A crash of a real vehicle is the gains' doing; anything else that stops a trial is not.
+                journal.append(_entry(kind if f.outcome == "crash" else "failed", f))
             raise
         journal.append(_entry(kind, f))
         self.progress({"kind": kind, "flight": f, "journal": journal})
         return f
+
+    def _baseline(self, x0: np.ndarray, journal: Journal) -> None:
+        """Fly the baseline gains first (the optimiser's first evaluation, answered from the journal): every 3-D
+        score is relative to this flight's tracking (:meth:`Mission.score`)."""
+        assert self.objective is not None
+        opt = journal.of("opt")
+        if not opt:
+            self.log("trial: baseline gains (the reference every score is measured against)")
+            f = self._fly(x0, "opt", journal)
+            opt = journal.of("opt")
+            if f.P < 0:
+                raise VehicleError(f"the baseline gains flew unsafe (P = {f.P:.3f} < 0, {f.outcome}: "
+                                   f"{f.meta.get('message') or 'see the trial record'}); safe BO needs a safe start: "
+                                   "fix the gains or the mission/safety settings first (baseline restored)")
+        self.baseline_trial = int(opt[0]["trial"])
+        if self.vehicle is not None and self.vehicle.mission.kind != "figure8-xz":
+            self.objective.rms_ref = opt[0].get("rms")
 
     def run(self, dry_run: bool = False) -> dict[str, Any]:
         from threadpoolctl import threadpool_limits
@@ -238,7 +262,9 @@ class Campaign:
 
         self.dir.mkdir(parents=True, exist_ok=True) if not dry_run else None
         self.vehicle = v = Vehicle.connect(self.endpoint, self.cfg.profile if not self.resume else
-                                           _saved_profile(self.dir), timeout=self.connect_timeout, log=self.log)
+                                           _saved_profile(self.dir), sysid=self.cfg.sysid, compid=self.cfg.compid,
+                                           timeout=self.connect_timeout, log=self.log)
+        base: dict[str, float] | None = None
         try:
             snap, base = self._load_or_create(dry_run)
             if dry_run:
@@ -251,6 +277,7 @@ class Campaign:
                                               settle_s=self.cfg.settle_s, first_index=_next_index(self.dir),
                                               log=self.log)
             started = time.time()
+            self._baseline(x0, journal)
             with threadpool_limits(1):
                 prior = self._prior(x0, bounds, journal)
                 result = self._optimize(optimize, x0, bounds, prior, journal)
@@ -260,8 +287,10 @@ class Campaign:
                 confirms.append(self._fly(best, "confirm", journal).P)
             summary = self._finish(snap, base, best, result, journal, confirms, time.time() - started)
             return summary
-        except KeyboardInterrupt:
-            self._safe_stop(base if "base" in locals() else None)
+        except (KeyboardInterrupt, KsboError) as exc:
+            if base is not None and not isinstance(exc, InputError):
+                self._safe_stop(base)
+            self._end_flight(error=True)
             raise
         finally:
             v.close()
@@ -282,16 +311,14 @@ class Campaign:
         options = optimizer_options(self._prior_kind(), self.cfg.options)
         kw = dict(budget=self.cfg.budget, method=self.cfg.method, seed=self.cfg.seed, p_min=0.0,
                   check_x0=True, **options)
-        if done:
+        if self.resume and done:
             self.log(f"resume: replaying {len(done)} journalled trial(s) through the optimiser (nothing re-flown)")
         try:
             return optimize(fun, x0, bounds, prior=prior, **kw)
-        except InputError as exc:
-            if str(exc).startswith("x0 is unsafe"):
-                P0 = journal.of("opt")[0]["P"]
-                raise VehicleError(f"the baseline gains flew unsafe (P = {P0:.3f} < 0): safe BO needs a safe start; "
-                                   "fix the gains or the mission/safety settings first (baseline restored)") from None
-            raise
+        except UnsafeStartError:
+            P0 = journal.of("opt")[0]["P"]
+            raise VehicleError(f"the baseline gains flew unsafe (P = {P0:.3f} < 0): safe BO needs a safe start; "
+                               "fix the gains or the mission/safety settings first (baseline restored)") from None
         except _Diverged:
             self.log("resume: the optimiser's proposals differ from the journal; continuing with the journalled "
                      "trials as prior data")
@@ -304,15 +331,37 @@ class Campaign:
             return optimize(lambda x: self._fly(x, "opt", journal).P, x0, bounds, prior=(pX, py), **kw)
 
     def _safe_stop(self, base: dict[str, float] | None) -> None:
-        """After Ctrl-C between trials: make sure the baseline is on the vehicle (verified)."""
+        """After Ctrl-C or an error between trials: make sure the baseline is on the vehicle (verified)."""
         v = self.vehicle
-        if v is None or base is None:
+        if v is None or base is None or v.link.closed:
             return
         try:
             v.restore(base)
-            self.log("interrupted: baseline gains restored and verified")
+            self.log("stopped: baseline gains restored and verified")
         except (VehicleError, KeyboardInterrupt) as exc:
-            self.log(f"interrupted: baseline NOT verified ({exc}); run `ksbo-mav restore {self.dir}`")
+            self.log(f"stopped: baseline NOT verified ({exc}); run `ksbo-mav restore {self.dir}`")
+
+    def _end_flight(self, error: bool) -> None:
+        """Leave the vehicle landed and disarmed (``--end land``, and after any stop below the mission altitude or
+        before a trial reached it), or holding where it is (``--end hold``): confirmed, or said why not."""
+        v = self.vehicle
+        if v is None or v.link.closed or not v.armed:
+            return
+        g = v.guided
+        low = not g.height() >= 0.9 * float(v.mission.center_up)
+        try:
+            if self.cfg.end == "land" or (error and low):
+                self.log("landing" + (" (stopped below the mission altitude)" if self.cfg.end != "land" else ""))
+                g.land()
+                self.log("landed and disarmed (confirmed by the heartbeat)")
+            else:
+                here = g.position()
+                if here is not None:
+                    g.hold_at(here)
+                g.park() if v.stack.needs_stream else g.hold_at(None)
+                self.log(f"holding at {g.height():.1f} m in {v.stack.mode_name(g.heartbeat.custom_mode)} (--end hold)")
+        except (VehicleError, KeyboardInterrupt) as exc:
+            self.log(f"could not land/hold the vehicle: {exc}; it is now under its own failsafes - take over")
 
     def _finish(self, snap: Snapshot | None, base: dict[str, float], best: np.ndarray, result: Any,
                 journal: Journal, confirms: list[float], wall: float) -> dict[str, Any]:
@@ -329,14 +378,15 @@ class Campaign:
             v.restore(base)
             self.log("baseline gains restored and verified by a fresh read")
         on_vehicle = {n: v.params.table[n].value for n in base}
-        if self.cfg.end == "land" and v.armed:
-            v.land()
+        self._end_flight(error=False)
         summary = {
-            "baseline": {"x": v.gains.from_vehicle(base).tolist(), "values": base, "P": base_P},
+            "baseline": {"x": v.gains.from_vehicle(base).tolist(), "values": base, "P": base_P,
+                         "trial": self.baseline_trial, "rms_m": opt[0].get("rms") if opt else None},
             "best": {"x": best.tolist(), "values": best_values, "P_model": float(result.fun),
                      "P_confirm": float(np.mean(confirms)) if confirms else None, "P_confirm_all": confirms},
             "accepted": self.cfg.accept, "on_vehicle": on_vehicle,
             "n_trials": len(journal.entries), "n_unsafe": int(sum(e["P"] < 0 for e in opt)),
+            "n_failed": len(journal.of("failed")),
             "n_aborted": int(sum(e["outcome"] != "ok" for e in journal.entries)),
             "method": self.cfg.method, "orders": list(result.orders) if result.orders else None,
             "wall_s": wall, "dir": str(self.dir),
@@ -385,10 +435,10 @@ def write_accepted(d: Path, base: dict[str, float], best: dict[str, float], v: V
 
 
 def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], None] = print,
-                     timeout: float = 15.0) -> dict[str, float]:
+                     timeout: float = 15.0, sysid: int | None = None, compid: int | None = None) -> dict[str, float]:
     """Write a snapshot's tuned gains back and verify them by a fresh read (works after any crash)."""
     snap = load_snapshot(path)
-    v = Vehicle.connect(endpoint, snap.profile, timeout=timeout, log=log)
+    v = Vehicle.connect(endpoint, snap.profile, sysid=sysid, compid=compid, timeout=timeout, log=log)
     try:
         check_identity(snap, v)
         base = snap.baseline()
@@ -405,7 +455,7 @@ def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], 
 
 
 def accept_campaign(d: str | Path, endpoint: Endpoint, log: Callable[[str], None] = print,
-                    timeout: float = 15.0) -> dict[str, float]:
+                    timeout: float = 15.0, sysid: int | None = None, compid: int | None = None) -> dict[str, float]:
     """Write a finished campaign's best gains (checked against the snapshot's trust region), verify, export."""
     d = Path(d)
     try:
@@ -413,7 +463,7 @@ def accept_campaign(d: str | Path, endpoint: Endpoint, log: Callable[[str], None
     except (OSError, json.JSONDecodeError):
         raise InputError(f"{d} has no readable result.json (campaign not finished?)") from None
     snap = load_snapshot(d)
-    v = Vehicle.connect(endpoint, snap.profile, timeout=timeout, log=log)
+    v = Vehicle.connect(endpoint, snap.profile, sysid=sysid, compid=compid, timeout=timeout, log=log)
     try:
         check_identity(snap, v)
         base = snap.baseline()

@@ -133,6 +133,39 @@ class Sitl:
             shutil.rmtree(self.workdir, ignore_errors=True)
         return self.proc.returncode
 
+    def set_param(self, name: str, value: float, int32: bool = False, timeout: float = 10.0) -> float:
+        """Set one parameter over a separate connection (test set-up, e.g. PX4's COM_RCL_EXCEPT for a vehicle
+        with no RC); returns the echoed value. PX4 INT32 values travel byte-wise in the float field."""
+        os.environ.setdefault("MAVLINK20", "1")
+        import struct
+
+        from pymavlink import mavutil
+
+        conn = mavutil.mavlink_connection(self.device, source_system=253, source_component=190,
+                                          autoreconnect=False)
+        try:
+            hb = conn.wait_heartbeat(timeout=timeout)
+            if hb is None:
+                raise RuntimeError(f"{self.kind} SITL: no heartbeat to set {name}")
+            bytewise = self.kind == "px4" and int32
+            wire = struct.unpack("<f", struct.pack("<i", int(value)))[0] if bytewise else float(value)
+            ptype = mavutil.mavlink.MAV_PARAM_TYPE_INT32 if int32 else mavutil.mavlink.MAV_PARAM_TYPE_REAL32
+            deadline = time.monotonic() + timeout
+            while time.monotonic() < deadline:
+                conn.mav.param_set_send(conn.target_system, conn.target_component, name.encode(), wire, ptype)
+                msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=1.0)
+                while msg is not None and msg.param_id != name:
+                    msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=1.0)
+                if msg is not None:
+                    got = msg.param_value
+                    if bytewise:
+                        got = struct.unpack("<i", struct.pack("<f", got))[0]
+                    if abs(got - value) < 1e-6:
+                        return float(got)
+            raise RuntimeError(f"{self.kind} SITL did not confirm {name} = {value}")
+        finally:
+            conn.close()
+
     def kill(self) -> None:
         """SIGKILL (the process dies at once: a power cut)."""
         if self.proc.poll() is None:

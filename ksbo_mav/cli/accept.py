@@ -22,7 +22,8 @@ def run(args: argparse.Namespace) -> int:
 
     from ksbo_mav.tune import accept_campaign
 
-    best = accept_campaign(args.dir, endpoint_from_args(args), log=lambda s: print(s), timeout=args.timeout)
+    best = accept_campaign(args.dir, endpoint_from_args(args), log=lambda s: print(s), timeout=args.timeout,
+                            sysid=args.sysid, compid=args.compid)
     print(Path(args.dir, "diff.txt").read_text(), end="")
     print(f"accepted {len(best)} gain(s); exported {Path(args.dir, 'accepted.param')} and .params")
     return 0

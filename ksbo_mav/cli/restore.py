@@ -20,7 +20,8 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_mav.tune import restore_snapshot
 
     endpoint = endpoint_from_args(args)
-    values = restore_snapshot(args.snapshot, endpoint, log=lambda s: print(s), timeout=args.timeout)
+    values = restore_snapshot(args.snapshot, endpoint, log=lambda s: print(s), timeout=args.timeout,
+                              sysid=args.sysid, compid=args.compid)
     for name, value in values.items():
         print(f"  {name:<16} {value:.7g}")
     print(f"restored {len(values)} gain(s) from {args.snapshot}; verified by a fresh read")

@@ -77,21 +77,25 @@ def _config(args: argparse.Namespace):
         cfg = CampaignConfig(**saved)
         cfg.dir = args.resume
         cfg.accept = cfg.accept or args.accept
+        cfg.sysid = args.sysid if args.sysid is not None else cfg.sysid
+        cfg.compid = args.compid if args.compid is not None else cfg.compid
         return cfg
     if not args.dir:
         raise InputError("give a campaign directory DIR (or --resume DIR)")
     return CampaignConfig(dir=args.dir, profile=args.profile, method=args.method, budget=args.budget,
                           seed=args.seed, prior=args.prior, n_prior=args.n_prior, confirm=args.confirm,
-                          accept=args.accept, end=args.end)
+                          accept=args.accept, end=args.end, sysid=args.sysid, compid=args.compid)
 
 
 def print_summary(s: dict[str, Any], log) -> None:
     b, t = s["baseline"], s["best"]
-    log(f"before: P = {b['P']:+.4f}  (baseline gains, trial 0)")
+    rms = f", lap-2 RMS {b['rms_m']:.3f} m" if b.get("rms_m") is not None else ""
+    log(f"before: P = {b['P']:+.4f}  (baseline gains, trial {b.get('trial')}{rms})")
     pc = t["P_confirm"]
     log(f"after:  P = {pc:+.4f}  (recommended gains re-flown; model mean {t['P_model']:+.4f})"
         if pc is not None else f"after:  model mean P = {t['P_model']:+.4f}")
-    log(f"trials {s['n_trials']}, unsafe {s['n_unsafe']}, aborted {s['n_aborted']}, {s['wall_s']:.0f} s")
+    log(f"trials {s['n_trials']}, unsafe {s['n_unsafe']}, aborted {s['n_aborted']} "
+        f"(of which {s.get('n_failed', 0)} for reasons unrelated to the gains), {s['wall_s']:.0f} s")
     for name, v in t["values"].items():
         log(f"  {name:<16} {b['values'][name]:>12.6g} -> {v:<12.6g}")
     log("vehicle holds: " + ("the best gains (accepted)" if s["accepted"] else "the baseline gains (restored, verified)"))

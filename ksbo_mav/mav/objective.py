@@ -164,9 +164,9 @@ class MavlinkObjective:
         g.follow(lambda j: (start, None, None), settle, m.dt_ms, lambda s: self._check(s, None), self.log)
         t0 = int(v.telemetry.clock.last_ms)
         n, dt = m.steps, m.dt_ms
-        if self.rms_ref is not None:
-            v.statustext(ref_text(m.tag, self.rms_ref))
         v.statustext(start_text(m.tag, t0, n, dt, m.window[0]))
+        if self.rms_ref is not None:  # after the start marker: a start forgets everything before it
+            v.statustext(ref_text(m.tag, self.rms_ref))
         # Step j's setpoint goes out when the vehicle clock reaches t0 + j*dt, stamped with that time; every
         # sample is checked against the reference at its own stamp, and scored against the logged setpoints.
         g.follow(lambda j: m.setpoint_at(j * dt / 1000.0), n, dt,
