@@ -1,11 +1,11 @@
 """ArduPilot DataFlash (``.BIN``) reader that streams: one pass over the file, only the wanted messages kept.
 
-pymavlink's ``DFReader_binary`` mmaps the file (fine) but first indexes the offset of *every* message in Python
-lists (about 36 bytes per message: ~0.5 GB for a 500 MB log of ~13 M messages) before it returns the first one.
-This reader walks the message chain once — ``0xA3 0x95 type`` then the body whose length the log's own FMT
-messages define — and copies only the bodies of the wanted types into one ``bytearray`` per type, decoded at the
-end with numpy into structured arrays. Memory is the kept messages' raw size (PSCN/PSCE/PSCD at 10 Hz: ~150 kB
-per simulated minute), never the file's.
+pymavlink's ``DFReader_binary`` mmaps the file and first indexes the offset of *every* message before it returns
+the first one (see BENCHMARKS.md for what that costs on a 500 MB log). This reader walks the message chain once,
+``CHUNK`` bytes at a time — ``0xA3 0x95 type`` then the body whose length the log's own FMT messages define — and
+copies only the bodies of the wanted types into one ``bytearray`` per type, decoded at the end with numpy into
+structured arrays. Memory is one chunk plus the kept messages' raw size (PSCN/PSCE/PSCD at 10 Hz: ~150 kB per
+simulated minute), never the file's.
 
 Strict framing: a message that does not start with the header is corruption (error with the byte offset); a file
 that ends inside a message is cut, reported to the caller (``truncated_at``) so it can decide whether what was cut
@@ -14,7 +14,6 @@ matters.
 
 from __future__ import annotations
 
-import mmap
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -74,6 +73,9 @@ class DFContents:
         return arr.astype(float) * s if s != 1 else arr.astype(float)
 
 
+CHUNK = 8 << 20  # bytes read at a time: memory is bounded by this plus the kept messages
+
+
 def read_dataflash(path: str | Path, wanted: set[str]) -> DFContents:
     """One streaming pass; raises :class:`InputError` on corruption (never on a cut end: see ``truncated``)."""
     p = Path(path)
@@ -83,65 +85,68 @@ def read_dataflash(path: str | Path, wanted: set[str]) -> DFContents:
         raise InputError(f"cannot read log {p}: {exc.strerror or exc}") from None
     with fh:
         size = fh.seek(0, 2)
+        fh.seek(0)
         if size == 0:
             raise InputError(f"log {p} is empty")
-        mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
-        try:
-            return _walk(mm, size, wanted, p)
-        finally:
-            mm.close()
+        return _walk(fh, size, wanted, p)
 
 
-def _walk(mm: mmap.mmap, size: int, wanted: set[str], p: Path) -> DFContents:
+def _walk(fh, size: int, wanted: set[str], p: Path) -> DFContents:
+    """Walk the message chain chunk by chunk (``CHUNK`` bytes plus at most one message carried over)."""
     lengths = [0] * 256
     lengths[FMT_TYPE] = FMT_LEN
     names: dict[int, str] = {FMT_TYPE: "FMT"}
     formats: dict[str, DFFormat] = {"FMT": DFFormat(FMT_TYPE, "FMT", FMT_LEN, "BBnNZ",
                                                     ["Type", "Length", "Name", "Format", "Columns"])}
     keep: dict[int, bytearray] = {}
+    keep_at: list[bytearray | None] = [None] * 256  # the same buffers, indexed by type (hot loop)
     counts = [0] * 256
-    pos = 0
     n_msgs = 0
-    truncated = False
-    while pos < size:
-        if size - pos < 3:
-            truncated = True
+    buf, pos, base = b"", 0, 0
+    while True:
+        chunk = fh.read(CHUNK)
+        eof = not chunk
+        buf = buf[pos:] + chunk
+        base += pos
+        pos, n = 0, len(buf)
+        while n - pos >= 3:
+            if buf[pos] != HEAD1 or buf[pos + 1] != HEAD2:
+                raise InputError(f"DataFlash log {p} is corrupted at offset {base + pos}: no message header "
+                                 f"(0xA3 0x95) where message {n_msgs + 1} should start")
+            typ = buf[pos + 2]
+            length = lengths[typ]
+            if not length:
+                raise InputError(f"DataFlash log {p} is corrupted at offset {base + pos}: message type {typ} has "
+                                 f"no FMT definition before it")
+            end = pos + length
+            if end > n:
+                break
+            counts[typ] += 1
+            n_msgs += 1
+            if typ == FMT_TYPE:
+                f = _parse_fmt(buf[pos + 3:end], p, base + pos)
+                if f.length < 3:
+                    raise InputError(f"DataFlash log {p} is corrupted at offset {base + pos}: FMT of {f.name} with "
+                                     f"length {f.length}")
+                lengths[f.type] = f.length
+                names[f.type] = f.name
+                formats[f.name] = f
+                if f.name in wanted and f.type not in keep:
+                    keep[f.type] = keep_at[f.type] = bytearray()
+            else:
+                kept = keep_at[typ]
+                if kept is not None:
+                    kept += buf[pos + 3:end]
+            pos = end
+        if eof:
             break
-        if mm[pos] != HEAD1 or mm[pos + 1] != HEAD2:
-            raise InputError(f"DataFlash log {p} is corrupted at offset {pos}: no message header "
-                             f"(0xA3 0x95) where message {n_msgs + 1} should start")
-        typ = mm[pos + 2]
-        length = lengths[typ]
-        if not length:
-            raise InputError(f"DataFlash log {p} is corrupted at offset {pos}: message type {typ} has no FMT "
-                             f"definition before it")
-        end = pos + length
-        if end > size:
-            truncated = True
-            break
-        counts[typ] += 1
-        n_msgs += 1
-        if typ == FMT_TYPE:
-            f = _parse_fmt(mm[pos + 3:end], p, pos)
-            if f.length < 3:
-                raise InputError(f"DataFlash log {p} is corrupted at offset {pos}: FMT of {f.name} with length "
-                                 f"{f.length}")
-            lengths[f.type] = f.length
-            names[f.type] = f.name
-            formats[f.name] = f
-            if f.name in wanted and f.type not in keep:
-                keep[f.type] = bytearray()
-        else:
-            buf = keep.get(typ)
-            if buf is not None:
-                buf += mm[pos + 3:end]
-        pos = end
+    truncated = pos < n
     data: dict[str, np.ndarray] = {}
-    for typ, buf in keep.items():
+    for typ, kept in keep.items():
         f = formats[names[typ]]
-        data[f.name] = np.frombuffer(bytes(buf), dtype=f.dtype()) if buf else np.zeros(0, dtype=f.dtype())
+        data[f.name] = np.frombuffer(bytes(kept), dtype=f.dtype()) if kept else np.zeros(0, dtype=f.dtype())
     cnt = {names.get(t, str(t)): c for t, c in enumerate(counts) if c}
-    return DFContents(formats, data, cnt, size, pos, truncated, n_msgs)
+    return DFContents(formats, data, cnt, size, base + pos, truncated, n_msgs)
 
 
 def _parse_fmt(body: bytes, p: Path, pos: int) -> DFFormat:
