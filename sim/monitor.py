@@ -60,9 +60,9 @@ class MonitorLimits:
 
 
 def planar_monitor_limits() -> MonitorLimits:
-    """In-process planar monitor: a ±1.5 m × [0.2, 1.8] m box, 60° tilt, 0.8 m tracking error (the figure-8
+    """In-process planar monitor: a ±1.6 m × [0.2, 1.8] m box, 60° tilt, 1 m tracking error (the figure-8
     spans ±0.75 m × [0.625, 1.375] m, so a good flight never comes near these)."""
-    return MonitorLimits(x_max=1.5, z_min=0.2, z_max=1.8, tilt_max_deg=60.0, tracking_error_max=0.8)
+    return MonitorLimits(x_max=1.6, z_min=0.2, z_max=1.8, tilt_max_deg=60.0, tracking_error_max=1.0)
 
 
 def check_state(lim: MonitorLimits, north: float, east: float, up: float, tilt_rad: float | None = None,

@@ -76,7 +76,9 @@ class AdaptiveConfig:
     Attributes:
         learn_safety_scale: fit the safety GP's per-dimension lengthscales by marginal likelihood (log-normal
             hyperprior ``safety_scale_prior`` = (median, log-sd), bounds ``safety_scale_bounds``) every
-            ``scale_refit_every`` evaluations, on completed trials.
+            ``scale_refit_every`` evaluations (every evaluation for the first ``4 × scale_refit_every``), on
+            completed trials; no lengthscale exceeds ``scale_extent_factor`` × the data's extent along its
+            dimension, and before any fit the scale starts at ``safety_scale_bounds[0]`` (small steps first).
         trust_region: candidates stay in a box around the incumbent whose half-width grows ×``tr_grow`` after
             ``tr_success`` safe improvements and shrinks ×``tr_shrink`` after an abort or crash (opt.trust_region).
         max_aborts: abort budget. None = strict (the paper's mode: only certified queries, never stopped).
@@ -94,6 +96,7 @@ class AdaptiveConfig:
     safety_scale_prior: tuple[float, float] = (0.1, 1.0)
     safety_scale_bounds: tuple[float, float] = (0.01, 1.0)
     scale_refit_every: int = 5
+    scale_extent_factor: float = 2.0
     trust_region: bool = False
     tr_init: float = 0.1
     tr_min: float = 0.02

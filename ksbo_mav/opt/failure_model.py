@@ -23,7 +23,7 @@ from ksbo_mav.gp.linalg import CholeskyError
 def learn_lengthscales(
     X: np.ndarray, g: np.ndarray, signal_std: float, noise_std: float, start: np.ndarray,
     prior: tuple[float, float] = (0.1, 1.0), bounds: tuple[float, float] = (0.01, 1.0),
-    rng: np.random.Generator | None = None,
+    rng: np.random.Generator | None = None, extent_factor: float | None = 2.0,
 ) -> np.ndarray:
     """ML-II (MAP) per-dimension lengthscales of an SE-ARD GP, signal and noise fixed.
 
@@ -31,9 +31,22 @@ def learn_lengthscales(
         X: (n, d) unit-cube inputs of completed trials; g: (n,) safety margins y − p_min.
         signal_std, noise_std: the GP's fixed scales. start: (d,) current lengthscales (first start).
         prior: (median, log-sd) of the log-normal hyperprior on each lengthscale. bounds: lengthscale bounds.
+        extent_factor: no lengthscale exceeds this many times the extent (max − min) of the data along its
+            dimension (nor falls below ``bounds[0]`` for it): the model may not claim smoothness over a range
+            it has not seen. With few points the marginal likelihood prefers long scales (a near-constant
+            function explains two close points best); this cap makes the safe set grow with the data instead.
     Returns:
-        (d,) lengthscales (``start`` unchanged if every start failed).
+        (d,) lengthscales (``start`` clipped to the caps if every start failed).
     """
+    upper = np.full(X.shape[1], bounds[1])
+    if extent_factor is not None:
+        upper = np.clip(extent_factor * (X.max(axis=0) - X.min(axis=0)), bounds[0], bounds[1])
+    return np.minimum(_ml_lengthscales(X, g, signal_std, noise_std, start, prior, bounds, rng), upper)
+
+
+def _ml_lengthscales(X: np.ndarray, g: np.ndarray, signal_std: float, noise_std: float, start: np.ndarray,
+                     prior: tuple[float, float], bounds: tuple[float, float],
+                     rng: np.random.Generator | None) -> np.ndarray:
     d = X.shape[1]
     v = float(signal_std) ** 2
     k = AdditiveKernel(dim=d, orders=(d,), lengthscales=np.clip(np.asarray(start, float), *bounds),

@@ -107,6 +107,9 @@ class SafeBO:
         self.crashed = np.zeros(n, dtype=bool) if crashed is None else np.asarray(crashed, dtype=bool)
         if self.x0 is None:
             self.x0 = self.X[0].copy()
+        target = self._scale_model()
+        if self.adaptive.learn_safety_scale and target is not None:
+            target.spec = target.spec.with_(lengthscale=float(self.adaptive.safety_scale_bounds[0]))
         self._refit(learn=self.adaptive.learn_safety_scale)
         if self.tr is not None:
             self.tr.center = self.incumbent()
@@ -119,8 +122,9 @@ class SafeBO:
         target = self._scale_model()
         if learn and target is not None and yc.size >= 2:
             start = np.broadcast_to(np.asarray(target.spec.lengthscale, dtype=float), (self.model.dim,))
+            a = self.adaptive
             ls = learn_lengthscales(Xc, yc - self.p_min, target.signal_std, target.noise_std, start,
-                                    self.adaptive.safety_scale_prior, self.adaptive.safety_scale_bounds, self.rng)
+                                    a.safety_scale_prior, a.safety_scale_bounds, self.rng, a.scale_extent_factor)
             target.spec = target.spec.with_(lengthscale=tuple(float(v) for v in ls))
             target.fit(Xc, yc)
             self.scale_history.append([float(v) for v in ls])
@@ -153,7 +157,8 @@ class SafeBO:
         self.complete = np.append(self.complete, done)
         self.crashed = np.append(self.crashed, outcome is Outcome.CRASHED)
         k, a = self.config.refit_every, self.adaptive
-        learn = a.learn_safety_scale and a.scale_refit_every > 0 and self.iteration % a.scale_refit_every == 0
+        every = a.scale_refit_every
+        learn = a.learn_safety_scale and every > 0 and (self.iteration <= 4 * every or self.iteration % every == 0)
         if learn or (k and self.iteration % k == 0) or (not done and a.max_aborts is not None):
             self._refit(learn=learn)
         elif done:

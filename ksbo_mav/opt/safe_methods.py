@@ -154,6 +154,7 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
     if bo.refly_set is not None:
         info["reflown"] = [problem.to_physical(bo.X[i]).tolist() for i in bo.refly_set]
     i, mu, lcb = recommend(bo)
+    info["gp_train_y"] = (np.asarray(bo.model.gp.y_train_) + problem.p_min).tolist()  # completed trials only
     info["signal_std"] = bo.model.signal_std
     info["noise_std"] = bo.model.noise_std
     result = build_result(

@@ -1,0 +1,186 @@
+"""Adaptive safe BO (issue 13): learned safety scale, trust region, censored aborts, max_aborts, re-flown
+recommendation, evidence re-selection."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import ksbo_mav
+from ksbo_mav.opt.failure_model import FailureModel, learn_lengthscales
+from ksbo_mav.opt.outcome import Evaluation, Outcome
+from ksbo_mav.opt.trust_region import TrustRegion
+
+CENTER = np.array([0.6, 0.45])
+BOX2 = np.array([[0.0, 1.0]] * 2)
+FIXED_SCALE = 0.05  # today's fixed safety lengthscale (Options.safety_lengthscale)
+
+
+def bump(ell: float):
+    """2-D Gaussian bump of width ``ell``: max 1 at CENTER, safe (≥ 0) within ≈1.18 ell of it."""
+
+    def f(x: np.ndarray) -> float:
+        return float(2.0 * np.exp(-np.sum((np.asarray(x) - CENTER) ** 2) / (2 * ell**2)) - 1.0)
+
+    return f
+
+
+def _run_bump(ell: float, learn: bool, seed: int = 0) -> tuple[ksbo_mav.OptimizeResult, float]:
+    f = bump(ell)
+    x0 = CENTER - np.array([1.0, 0.6]) * ell * 0.6  # f(x0) ≈ 0.57
+    r = ksbo_mav.optimize(f, x0, BOX2, budget=40, method="safeopt", seed=seed, learn_safety_scale=learn,
+                          signal_std=2.0, noise_std=1e-3, beta=3.0, n_local=512, n_global=64, recommend_noise=None,
+                          safety_lengthscale=FIXED_SCALE, lengthscale=FIXED_SCALE, exploit_last=5)
+    return r, f(r.x)
+
+
+@pytest.mark.parametrize("factor", [5.0, 0.2])
+def test_learned_safety_scale_follows_the_problem_and_stays_safe(factor: float) -> None:
+    ell = FIXED_SCALE * factor
+    r, f_rec = _run_bump(ell, learn=True)
+    ls = np.asarray(r.info["safety_lengthscales"][-1])
+    # The learnt scale moved from the fixed assumption towards the truth, in the right direction, on both axes.
+    assert np.all(ls > 0.5 * ell) and np.all(ls < 2.5 * ell)
+    assert r.n_unsafe == 0 and np.min(r.y) >= 0.0
+    assert f_rec >= 0.95  # reached the optimum (max 1)
+
+
+def test_fixed_scale_is_unsafe_on_the_small_scale_problem() -> None:
+    """Control: the fixed lengthscale assumption queries unsafe points on the 5x smaller problem."""
+    r, _ = _run_bump(FIXED_SCALE / 5, learn=False)
+    assert r.n_unsafe > 0
+
+
+def test_learn_lengthscales_is_capped_by_the_data_extent() -> None:
+    rng = np.random.default_rng(0)
+    X = 0.5 + 0.01 * rng.standard_normal((6, 3))
+    ls = learn_lengthscales(X, np.full(6, 0.5), 1.0, 0.01, np.full(3, 0.05), extent_factor=2.0)
+    assert np.all(ls <= 2.0 * (X.max(0) - X.min(0)) + 1e-12)
+    wide = learn_lengthscales(X, np.full(6, 0.5), 1.0, 0.01, np.full(3, 0.05), extent_factor=None)
+    assert np.all(wide > ls)  # without the cap, a flat function claims long scales from a tiny cluster
+
+
+def test_trust_region_grows_after_successes_and_shrinks_after_an_abort() -> None:
+    tr = TrustRegion(radius=0.1, r_min=0.02, r_max=0.4, grow=2.0, shrink=0.5, success_tol=2)
+    tr.update(Outcome.COMPLETE, improved=True)
+    assert tr.radius == pytest.approx(0.1)  # one success is not enough
+    tr.update(Outcome.COMPLETE, improved=True)
+    assert tr.radius == pytest.approx(0.2)
+    tr.update(Outcome.COMPLETE, improved=False)  # no improvement: unchanged
+    assert tr.radius == pytest.approx(0.2)
+    for _ in range(4):
+        tr.update(Outcome.COMPLETE, improved=True)
+    assert tr.radius == pytest.approx(0.4)  # capped at r_max
+    tr.update(Outcome.ABORTED, improved=False)
+    assert tr.radius == pytest.approx(0.2)
+    tr.update(Outcome.COMPLETE, improved=True)
+    tr.update(Outcome.CRASHED, improved=False)  # resets the success count too
+    assert tr.radius == pytest.approx(0.1)
+    tr.update(Outcome.COMPLETE, improved=True)
+    assert tr.radius == pytest.approx(0.1)
+    for _ in range(5):
+        tr.update(Outcome.ABORTED, improved=False)
+    assert tr.radius == pytest.approx(0.02)  # floored at r_min
+    tr.center = np.array([0.5, 0.5])
+    tr.set_weights(np.array([0.1, 0.4]))  # longer along the smoother dimension
+    assert tr.contains(np.array([[0.5, 0.53], [0.53, 0.5]])).tolist() == [True, False]
+
+
+def test_failure_model_learns_where_trials_abort() -> None:
+    X = np.array([[0.2, 0.2], [0.22, 0.2], [0.8, 0.8], [0.82, 0.8]])
+    fm = FailureModel(np.array([0.05, 0.05])).fit(X, np.array([0, 0, 1, 1], bool), np.array([0, 0, 0, 1], bool))
+    p_abort, p_crash = fm.predict(np.array([[0.21, 0.2], [0.81, 0.8], [0.5, 0.5]]))
+    assert p_abort[0] < 0.2 < p_abort[2] < p_abort[1]
+    assert p_crash[0] < p_crash[1] and p_crash[1] > 0.2
+
+
+def _aborting(region: float):
+    """f on [0,1]^2: increases towards (1, 1); trials with x0 + x1 > region abort (censored)."""
+
+    def f(x: np.ndarray) -> Evaluation | float:
+        x = np.asarray(x)
+        if x.sum() > region:
+            return Evaluation(None, Outcome.ABORTED)
+        return float(0.2 + 0.5 * x.sum() / 2)
+
+    return f
+
+
+@pytest.mark.parametrize("cap", [0, 1, 3])
+def test_max_aborts_is_never_exceeded(cap: int) -> None:
+    r = ksbo_mav.optimize(_aborting(0.9), np.array([0.2, 0.2]), BOX2, budget=40, method="ksbo-adaptive", seed=cap,
+                          max_aborts=cap, orders=(1, 2), n_local=256, n_global=0, y_max=1.0)
+    assert r.n_aborted + r.n_crashed <= cap
+    if r.nfev < 40:  # the run ends exactly when the abort budget is spent
+        assert r.n_aborted + r.n_crashed == cap and "max_aborts" in r.info["stopped"]
+    assert r.outcomes[0] == "complete"
+
+
+def test_aborted_trials_are_censored_not_values() -> None:
+    calls = []
+
+    def f(x: np.ndarray) -> Evaluation:
+        calls.append(x)
+        if x[0] > 0.45:
+            return Evaluation(-123.0, Outcome.ABORTED)  # a made-up value the GP must never see
+        return Evaluation(float(0.3 + x[0]), Outcome.COMPLETE)
+
+    r = ksbo_mav.optimize(f, np.array([0.3, 0.5]), BOX2, budget=30, method="ksbo-adaptive", seed=1, max_aborts=5,
+                          orders=(1,), n_local=256, y_max=1.0)
+    assert r.n_aborted >= 1
+    assert np.all(r.y[np.array(r.outcomes) == "aborted"] == -123.0)  # recorded for the user ...
+    gp_y = np.asarray(r.info["gp_train_y"])
+    assert np.all(gp_y > -1.0)  # ... but never a training target
+    assert len(gp_y) == sum(o == "complete" for o in r.outcomes)
+
+
+def test_recommendation_refies_top_candidates_and_rejects_a_bistable_one() -> None:
+    """A spike at B flew 1.0 once (prior) but aborts every other flight; A flies 0.8 reliably."""
+    A, B = np.array([0.3, 0.3]), np.array([0.32, 0.3])
+    flights_at_b = []
+
+    def f(x: np.ndarray) -> Evaluation | float:
+        if np.linalg.norm(x - B) < 0.005:
+            flights_at_b.append(x)
+            return 1.0 if len(flights_at_b) % 2 == 0 else Evaluation(None, Outcome.ABORTED)
+        return float(0.8 - 2 * np.sum((x - A) ** 2))
+
+    prior = (np.array([B, A + [0.0, 0.02]]), np.array([1.0, 0.8 - 2 * 0.02**2]))
+    r = ksbo_mav.optimize(f, A, BOX2, budget=20, method="ksbo-adaptive", seed=0, prior=prior, max_aborts=20,
+                          refly_last=10, refly_top=2, orders=(1,), n_local=256, y_max=1.0, lengthscale=0.3,
+                          recommend_noise=None, recommend="mean")
+    reflown = np.array(r.info["reflown"])
+    assert any(np.allclose(p, B) for p in reflown)  # the lucky spike was among the candidates ...
+    assert not np.allclose(r.x, B)  # ... and re-flying rejected it
+    assert sum(k["kind"] == "refly" for k in r.info["proposals"]) == 4  # a fifth of the budget at most
+
+
+def test_orders_are_reselected_by_evidence_and_changes_reported() -> None:
+    def additive(x: np.ndarray) -> float:  # order-1 structure: a sum of 1-D terms
+        return float(0.5 + 0.3 * np.sum(np.sin(3 * np.asarray(x))) / 4)
+
+    rng = np.random.default_rng(0)
+    pX = 0.4 + 0.2 * rng.random((12, 4))
+    prior = (pX, np.array([additive(x) for x in pX]))
+    r = ksbo_mav.optimize(additive, np.full(4, 0.5), np.array([[0.0, 1.0]] * 4), budget=12, seed=0, prior=prior,
+                          method="ksbo-adaptive", reselect_every=5, max_order=4, top=1, trials=20, n_local=128,
+                          max_aborts=None, refly_last=0)
+    assert r.info["selection"]["method"] == "cree"  # Algorithm 1 is the first selection
+    res = r.info["reselections"]
+    assert [s["at_iteration"] for s in res] == [5, 10]
+    assert all(s["method"] == "evidence" and set(s["scores"]) == {1, 2, 3, 4} for s in res)
+    assert r.info["reselection_changes"] == sum(s["changed"] for s in res)
+    assert r.orders == tuple(res[-1]["orders"])
+
+
+def test_monitor_outcomes_reach_the_result_counts() -> None:
+    from ksbo_mav.objective import SimObjective
+
+    obj = SimObjective(seed=0, monitor=True)
+    slow = np.array([0.15, 0.5, 0.1, 0.5, 0.0, 0.2, 3e4, 0.0, 1e4])
+    X = [obj.profile.default, slow, slow]
+    it = iter(X)
+    r = ksbo_mav.optimize(lambda x: obj(next(it)), obj.profile.default, obj.profile.bounds, budget=3,
+                          method="random", seed=0)
+    assert r.outcomes[0] == "complete" and r.n_aborted == r.outcomes.count("aborted") >= 1
+    assert r.n_crashed == r.outcomes.count("crashed") and r.n_unsafe >= r.n_aborted + r.n_crashed
