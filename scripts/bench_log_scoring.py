@@ -121,6 +121,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="ksbo-bench-logs-") as d:
         tmp = Path(d)
         src = args.bin or fly_source(tmp)
+        src_mb = src.stat().st_size / 1e6
         big = tmp / "big.BIN"
         t = time.perf_counter()
         copies, size = build_big(src, big, args.size_mb)
@@ -136,7 +137,7 @@ def main() -> int:
         rms = [s["figure8"]["score"]["rms_lap2_m"] for s in f8]
         print(f"ksbo-mav score: {wall:.1f} s, {size / 1e6 / wall:.1f} MB/s, peak RSS {rss:.0f} MB; "
               f"{len(segs)} segments, {len(f8)} figure-8s, lap-2 RMS {min(rms):.4f}..{max(rms):.4f} m", flush=True)
-        rows = [("`ksbo-mav score` (this issue), one SITL log", src.stat().st_size / 1e6, w_small, rss_small, ""),
+        rows = [("`ksbo-mav score` (this issue), one SITL log", src_mb, w_small, rss_small, ""),
                 (f"`ksbo-mav score` (this issue), {copies} copies", size / 1e6, wall, rss,
                  f"{len(segs)} segments, {len(f8)} figure-8s scored")]
         if not args.no_dfreader:
@@ -153,7 +154,7 @@ def main() -> int:
     body = f"""Machine: {machine()}. Script: `python scripts/bench_log_scoring.py --size-mb {args.size_mb:g}`.
 
 Input: one ArduCopter SITL flight (`ksbo_sim.sitl_flight`, 10x: GUIDED take-off, two figure-8 laps, LAND;
-{src.stat().st_size / 1e6:.1f} MB of default logging) repeated {copies} times with TimeUS shifted, {size / 1e6:.0f} MB in
+{src_mb:.1f} MB of default logging) repeated {copies} times with TimeUS shifted, {size / 1e6:.0f} MB in
 /tmp (deleted afterwards). Each reader in its own process; peak RSS = the process's max resident set size.
 
 {chr(10).join(table)}

@@ -93,25 +93,29 @@ def format_result(r: dict[str, Any]) -> list[str]:
     for s in r["segments"]:
         lines.append(f"segment {s['segment']}: {s['mode']} t={s['t_start_s']:.1f}..{s['t_end_s']:.1f} s "
                      f"({s['duration_s']:.1f} s)  vs target (RMS/max m): {_stats(s['vs_target'])}")
-        f8 = s["figure8"]
-        if not f8:
+        if not s.get("figure8s"):
             lines.append("  no figure-8 of the profile's mission in this segment")
-            continue
-        off = ", ".join(f"{x:.2f}" for x in f8["offset_m"])
-        lines.append(f"  figure-8 ({f8['profile']} mission) from t={f8['t0_s']:.3f} s, {f8['laps_flown']:.2f} laps, "
-                     f"offset NED ({off}) m" + ("  [trial marker]" if f8["marker"] else ""))
-        for lap in f8["laps"]:
-            lines.append(f"    lap {lap['lap']}: vs target {_stats(lap['vs_target'])}  |  vs reference "
-                         f"{_stats(lap['vs_reference'])}  (RMS/max m)")
-        sc = f8["score"]
-        if sc.get("P") is None:
-            lines.append(f"    P: n/a ({sc.get('reason')})")
-        else:
-            lines.append(f"    P = {sc['P']:.4f}  (lap-2 RMS {_f(sc.get('rms_lap2_m'))} m, reference "
-                         f"{_f(sc.get('rms_ref_m'))} m, {'safe' if sc.get('safe') else 'UNSAFE'})"
-                         + (f"  incomplete: {sc['incomplete']}" if sc.get("incomplete") else ""))
+        for f8 in s.get("figure8s", []):
+            lines.extend(_figure8_lines(f8))
     for w in r["warnings"]:
         lines.append(f"warning: {w}")
+    return lines
+
+
+def _figure8_lines(f8: dict[str, Any]) -> list[str]:
+    off = ", ".join(f"{x:.2f}" for x in f8["offset_m"])
+    lines = [f"  figure-8 ({f8['profile']} mission) from t={f8['t0_s']:.3f} s, {f8['laps_flown']:.2f} laps, "
+             f"offset NED ({off}) m" + ("  [trial marker]" if f8["marker"] else "")]
+    for lap in f8["laps"]:
+        lines.append(f"    lap {lap['lap']}: vs target {_stats(lap['vs_target'])}  |  vs reference "
+                     f"{_stats(lap['vs_reference'])}  (RMS/max m)")
+    sc = f8["score"]
+    if sc.get("P") is None:
+        lines.append(f"    P: n/a ({sc.get('reason')})")
+    else:
+        lines.append(f"    P = {sc['P']:.4f}  (lap-2 RMS {_f(sc.get('rms_lap2_m'))} m, reference "
+                     f"{_f(sc.get('rms_ref_m'))} m, {'safe' if sc.get('safe') else 'UNSAFE'})"
+                     + (f"  incomplete: {sc['incomplete']}" if sc.get("incomplete") else ""))
     return lines
 
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ksbo_mav.flightlog.analysis import analyse, default_profile, find_segments, recognise_figure8
+from ksbo_mav.flightlog.analysis import (analyse, default_profile, find_segments, recognise_figure8,
+                                         recognise_figure8s)
 from ksbo_mav.flightlog.detect import detect_format
 from ksbo_mav.flightlog.model import FlightLog, Track
 from ksbo_mav.flightlog.readers import read_log
@@ -31,4 +32,4 @@ def score_file(path: str | Path, profile: str | None = None, partial: bool = Fal
 
 
 __all__ = ["FlightLog", "Track", "analyse", "detect_format", "find_segments", "read_log", "recognise_figure8",
-           "score_file"]
+           "recognise_figure8s", "score_file"]

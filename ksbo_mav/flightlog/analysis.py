@@ -116,32 +116,41 @@ def reference(mission, t: np.ndarray, offset: np.ndarray) -> tuple[np.ndarray, n
 
 
 def recognise_figure8(log: FlightLog, seg: Segment, mission) -> Fit | None:
-    """The mission's figure-8 inside ``seg`` (start time, offset, where it ends), or None.
+    """The first of :func:`recognise_figure8s`, or None."""
+    fits = recognise_figure8s(log, seg, mission)
+    return fits[0] if fits else None
+
+
+def recognise_figure8s(log: FlightLog, seg: Segment, mission) -> list[Fit]:
+    """Every figure-8 of the mission inside ``seg`` (a campaign flies several in one GUIDED stretch, holding still
+    between them), in time order.
 
     Recognised from the setpoints the vehicle received when the log has them (GUIP, trajectory_setpoint, sent
     SET_POSITION_TARGET_LOCAL_NED), else from the autopilot's target (ArduPilot's PSC target is shaped: it lags
     the setpoints by up to ~3 m in the first seconds of a trajectory, so it is the second choice).
     """
     if mission is None or mission.kind != "figure8-ne":
-        return None
+        return []
     for src in (log.commanded, log.target):
         if src is None:
             continue
-        fit = _fit(src.window(seg.t_start, seg.t_end), log, seg, mission)
-        if fit is not None:
-            return fit
-    return None
+        tg = src.window(seg.t_start, seg.t_end)
+        fits = [f for run in _moving_runs(tg, mission.period) if (f := _fit(tg, run, log, seg, mission))]
+        if fits:
+            return fits
+    return []
 
 
-def _moving_run(tg: Track, period: float) -> tuple[float, float] | None:
-    """Longest stretch (on a 10 Hz grid) where the horizontal target speed exceeds MOVING_MPS."""
+def _moving_runs(tg: Track, period: float) -> list[tuple[float, float]]:
+    """Stretches (on a 10 Hz grid) of at least half a period where the horizontal target speed exceeds
+    MOVING_MPS."""
     if len(tg) < 10 or tg.t[-1] - tg.t[0] < 1.0:
-        return None
+        return []
     grid = np.arange(tg.t[0], tg.t[-1], 0.1)
     p = np.column_stack([np.interp(grid, tg.t, tg.pos[:, k]) for k in range(2)])
     sp = np.hypot(*np.gradient(p, 0.1, axis=0).T)
     moving = sp > MOVING_MPS
-    best, i, n = None, 0, len(moving)
+    runs, i, n = [], 0, len(moving)
     while i < n:
         if not moving[i]:
             i += 1
@@ -149,23 +158,18 @@ def _moving_run(tg: Track, period: float) -> tuple[float, float] | None:
         j = i
         while j + 1 < n and moving[j + 1]:
             j += 1
-        if best is None or grid[j] - grid[i] > best[1] - best[0]:
-            best = (float(grid[i]), float(grid[j]))
+        if grid[j] - grid[i] >= 0.5 * period:
+            runs.append((float(grid[i]), float(grid[j])))
         i = j + 1
-    if best is None or best[1] - best[0] < 0.5 * period:
-        return None
-    return best
+    return runs
 
 
-def _fit(tg: Track, log: FlightLog, seg: Segment, mission) -> Fit | None:
-    run = _moving_run(tg, mission.period)
-    if run is None:
-        return None
+def _fit(tg: Track, run: tuple[float, float], log: FlightLog, seg: Segment, mission) -> Fit | None:
     T, A, B = mission.period, mission.scale, mission.scale2
     w = 2 * math.pi / T
     sel = (tg.t >= run[0] - 0.2) & (tg.t <= run[1] + 0.2)
     t, pos = tg.t[sel], tg.pos[sel]
-    marker = _marker_in(log, seg, mission)
+    marker = _marker_in(log, run, mission)
     if marker is not None:
         t0 = marker[0]
     else:
@@ -204,12 +208,13 @@ def _cost(mission, t, pos, t0) -> float:
     return float(np.mean(np.sum(r * r, axis=1)))
 
 
-def _marker_in(log: FlightLog, seg: Segment, mission):
+def _marker_in(log: FlightLog, run: tuple[float, float], mission):
+    """The trial start marker whose t0 is where this run of moving targets begins (within 1 s)."""
     for m in log.markers:
         g = START_RE.match(m.text)
         if g and g.group(1) == mission.tag:
             t0 = int(g.group(2)) / 1000.0
-            if seg.t_start - 1.0 <= t0 <= seg.t_end:
+            if run[0] - 1.0 <= t0 <= run[0] + 1.0:
                 return t0, int(g.group(3)), int(g.group(4)), m.text
     return None
 
@@ -218,7 +223,7 @@ def _ref_marker(log: FlightLog, fit: Fit) -> float | None:
     """The campaign's reference RMS sent by the tuner right after a trial's start marker, if logged."""
     for m in log.markers:
         g = REF_RE.match(m.text)
-        if g and fit.t0 - 1.0 <= m.t <= fit.t_end + 1.0:
+        if g and fit.t0 - 1.0 <= m.t <= fit.t_end:
             return float(g.group(1))
     return None
 
@@ -287,9 +292,9 @@ def analyse(log: FlightLog, mission=None, profile_name: str | None = None, parti
         entry: dict[str, Any] = {"segment": seg.index, "mode": seg.mode, "t_start_s": seg.t_start,
                                  "t_end_s": seg.t_end, "duration_s": seg.t_end - seg.t_start,
                                  "vs_target": error_stats(e), "figure8": None}
-        fit = recognise_figure8(log, seg, mission)
-        if fit is not None:
-            entry["figure8"] = figure8_entry(log, fit, mission, profile_name, rms_ref)
+        entry["figure8s"] = [figure8_entry(log, fit, mission, profile_name, rms_ref)
+                             for fit in recognise_figure8s(log, seg, mission)]
+        entry["figure8"] = entry["figure8s"][0] if entry["figure8s"] else None  # the first, for short reports
         out.append(entry)
     return {"log": str(log.path), "format": log.fmt, "autopilot": log.autopilot,
             "actual_source": log.actual.label, "target_source": log.target.label if log.target else None,
