@@ -68,3 +68,20 @@ def test_timeout_shows_its_default_and_must_be_positive(command):
     assert r.returncode == 0 and "default: 15" in " ".join(r.stdout.split())
     r = run(command, "DIR", "--tcp", "127.0.0.1:5760", "--timeout", "-1")
     assert r.returncode == 2 and "--timeout" in r.stderr and "positive" in r.stderr
+
+
+def test_simulator_input_errors_are_one_line_from_both_entry_points():
+    one_line_error(run("sim", "--speedup", "-1"), "--speedup must be positive")
+    r = subprocess.run([sys.executable, "-m", "ksbo_sim.mavlink", "--personality", "nope"], capture_output=True,
+                       text=True, timeout=120)
+    one_line_error(r, "unknown personality 'nope'")
+
+
+def test_simulator_launcher_reports_a_failed_start_in_one_line():
+    from ksbo_sim.errors import SimStartError
+    from ksbo_sim.process import SimProcess
+
+    with pytest.raises(SimStartError) as exc:
+        SimProcess("--personality", "nope")
+    assert "did not start" in str(exc.value) and "unknown personality 'nope'" in str(exc.value)
+    assert "\n" not in str(exc.value)
