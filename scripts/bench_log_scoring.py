@@ -118,6 +118,7 @@ def main() -> int:
     ap.add_argument("--no-dfreader", action="store_true", help="skip the pymavlink DFReader comparison")
     ap.add_argument("--no-write", action="store_true", help="print only, leave BENCHMARKS.md alone")
     args = ap.parse_args()
+    load0 = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="ksbo-bench-logs-") as d:
         tmp = Path(d)
         src = args.bin or fly_source(tmp)
@@ -154,16 +155,19 @@ def main() -> int:
     body = f"""Machine: {machine()}. Script: `python scripts/bench_log_scoring.py --size-mb {args.size_mb:g}`.
 
 Input: one ArduCopter SITL flight (`ksbo_sim.sitl_flight`, 10x: GUIDED take-off, two figure-8 laps, LAND;
-{src_mb:.1f} MB of default logging) repeated {copies} times with TimeUS shifted, {size / 1e6:.0f} MB in
-/tmp (deleted afterwards). Each reader in its own process; peak RSS = the process's max resident set size.
+{src_mb:.1f} MB of default logging) repeated {copies} times with TimeUS shifted: {size / 1e6:.0f} MB in /tmp, deleted
+afterwards. Each reader runs in its own process; peak RSS = that process's maximum resident set size. The 2 cores
+were shared with other work (1-min load average {load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end): wall
+times are upper bounds.
 
 {chr(10).join(table)}
 
 `ksbo-mav score` walks the DataFlash message chain once, 8 MB at a time, and keeps only the bodies of
-PSCN/PSCE/PSCD, GUIP, MODE, MSG, PARM and ARM (decoded at the end with numpy): its memory is the interpreter and
-libraries (the one-log row) plus the kept messages, which grow with the flight time logged, not with the file. Every copy's figure-8 is recognised and scored (lap-2 RMS {min(rms):.4f}..{max(rms):.4f} m — identical
-copies, identical scores). pymavlink's DFReader mmaps the file (its pages count in its RSS once
-touched) and indexes the offset of every message before returning one.
+PSCN/PSCE/PSCD, GUIP, MODE, MSG, PARM and ARM, decoded at the end with numpy. Its memory is the interpreter and
+libraries (the one-log row) plus the kept messages, which grow with the flight time logged, not with the file
+size. Every copy's figure-8 is recognised and scored (lap-2 RMS {min(rms):.4f}..{max(rms):.4f} m: identical copies,
+identical scores). pymavlink's DFReader mmaps the file (its pages count in its RSS once touched) and indexes the
+offset of every message before returning the first one; it only reads, it does not score.
 """
     print(body)
     if not args.no_write:
