@@ -128,7 +128,17 @@ def _run_trial(args: argparse.Namespace) -> int:
     from ksbo_mav.profiles import load_profile
 
     traj, info, rec = trajectory_from_tlog(read_tlog(args.log))
-    profile = load_profile(args.profile or ("sim-planar" if rec.kind == "figure8-xz" else "ardupilot-copter"))
+    name = args.profile
+    if name is None and rec.kind == "figure8-xz":
+        name = "sim-planar"
+    elif name is None:  # the 3-D figure-8: the profile of the vehicle's autopilot (HEARTBEAT)
+        from ksbo_mav.flightlog import default_profile, read_log
+
+        try:
+            name = default_profile(read_log(args.log, partial=True))
+        except InputError:
+            name = "ardupilot-copter"
+    profile = load_profile(name)
     mission = Mission.from_profile(profile)
     if (mission.kind, mission.steps, mission.window[0], mission.dt_ms) != (rec.kind, rec.n, rec.w, rec.dt):
         raise InputError(f"the tlog's trial ({rec.kind}, {rec.n} steps of {rec.dt} ms, scored from {rec.w}) does not "
