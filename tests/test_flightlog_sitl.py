@@ -124,6 +124,12 @@ def test_px4_ulg_and_client_tlog_agree(px4_sitl, tmp_path, capsys):
     a, b = _agree(capsys, ulg, tlog, res)
     assert a["format"] == "ulg" and a["autopilot"] == "px4" and a["segments"][0]["mode"] == "OFFBOARD"
     _truncated(capsys, tmp_path, ulg, "cut.ulg")
+    data = bytearray(ulg.read_bytes())  # 4 kB of garbage in the middle: broken message framing
+    data[len(data) // 2:len(data) // 2 + 4096] = b"\xff" * 4096
+    (tmp_path / "bad.ulg").write_bytes(bytes(data))
+    rc = main(["score", str(tmp_path / "bad.ulg")])
+    out, err = capsys.readouterr()
+    assert rc == 2 and out == "" and err.startswith("error: ") and "is corrupted at offset" in err
 
 
 # --- a tuning campaign's trials: onboard log vs live score --------------------------------------------------------

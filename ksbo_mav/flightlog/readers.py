@@ -134,18 +134,25 @@ def _bin_params(c) -> dict[str, float]:
 ULG_TOPICS = ["vehicle_local_position", "vehicle_local_position_setpoint", "trajectory_setpoint", "vehicle_status"]
 
 
+_ULOG_TYPES = set(b"BFIMPQARDLCSO")  # ULog message types (header: uint16 size, uint8 type)
+
+
 class _CutDetector:
-    """File wrapper for pyulog: remembers whether a read came back short (pyulog silently stops there)."""
+    """File wrapper for pyulog, which silently stops at a cut and resynchronises over damage: remembers where a
+    read came back short (a cut) and where a message header had an unknown type (broken framing)."""
 
     def __init__(self, fh) -> None:
         self.fh = fh
         self.short_at: int | None = None
+        self.bad_at: int | None = None
 
     def read(self, n: int = -1) -> bytes:
         pos = self.fh.tell()
         data = self.fh.read(n)
         if n is not None and n > 0 and 0 < len(data) < n and self.short_at is None:
             self.short_at = pos
+        if n == 3 and len(data) == 3 and data[2] not in _ULOG_TYPES and self.bad_at is None and pos >= 16:
+            self.bad_at = pos
         return data
 
     def __getattr__(self, name: str) -> Any:
@@ -215,7 +222,11 @@ def read_ulg(p: Path, partial: bool = False) -> FlightLog:
             markers.append(Marker(m.timestamp * 1e-6, text.strip()))
     log = FlightLog(p, "ulg", "px4", actual, target, commanded, modes, markers,
                     info={"bytes": size, "corruption": bool(ulog.file_corruption)})
-    if ulog.file_corruption:
+    if ulog.file_corruption or wrap.bad_at is not None:
+        where = f" at offset {wrap.bad_at}" if wrap.bad_at is not None else ""
+        if not partial:
+            raise InputError(f"PX4 ULog {p} is corrupted{where}: damaged messages were skipped; pass --partial to "
+                             f"score what could be read")
         log.warnings.append("pyulog reported corrupted data and skipped it")
     if wrap.short_at is not None:
         log.truncated_at = float(t[-1])
