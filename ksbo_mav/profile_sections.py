@@ -95,8 +95,10 @@ class ScoreSpec:
     """``[score]``: overrides of the trial score. Unset keys (None) keep the scorer's defaults.
 
     Planar task (``ksbo_mav.scoring.ScoreConfig``): ``Q`` (6 state weights), ``R`` (2 input weights), ``u_ref``,
-    ``j_hi``, ``lam``, ``floor``. 3-D copters: ``rms_max_m`` (P = 1 - RMS / rms_max_m). New score keys are new
-    fields here.
+    ``j_hi``, ``lam``, ``floor``. 3-D copters (``ksbo_mav.mav.mission.Mission.score``):
+    ``P = 1 - RMS / (unsafe_rms_ratio * RMS_ref)`` with RMS_ref the campaign's baseline flight (or ``rms_ref_m``
+    when set: a fixed reference), so the baseline scores ``1 - 1/unsafe_rms_ratio`` and P < 0 means tracking more
+    than ``unsafe_rms_ratio`` times worse than the baseline. New score keys are new fields here.
     """
 
     Q: tuple[float, ...] | None = None
@@ -105,12 +107,15 @@ class ScoreSpec:
     j_hi: float | None = None
     lam: float | None = None
     floor: float | None = None
-    rms_max_m: float | None = None
+    unsafe_rms_ratio: float | None = None
+    rms_ref_m: float | None = None
 
     def __post_init__(self) -> None:
         if self.Q is not None and len(self.Q) != 6 or self.R is not None and len(self.R) != 2:
             raise InputError("Q needs 6 diagonal weights and R needs 2")
-        _positive(self, "j_hi", "rms_max_m")
+        _positive(self, "j_hi", "rms_ref_m")
+        if self.unsafe_rms_ratio is not None and not self.unsafe_rms_ratio > 1.0:
+            raise InputError(f"unsafe_rms_ratio must be > 1 (the baseline must score safe), got {self.unsafe_rms_ratio}")
 
     def given(self) -> dict[str, Any]:
         """The keys the profile sets (lists as tuples)."""

@@ -66,7 +66,7 @@ def test_typed_defaults_match_what_the_client_uses():
     ("sim-planar", "x_max_m = 2.0", "x_max = 2.0", ["'x_max'", "[safety]", "x_max_m"]),  # typo in [safety]
     ("sim-planar", "max_step_fraction = 0.5", "max_step = 0.5", ["'max_step'", "[trust_region]"]),
     ("sim-planar", "period_s = 6.0", "period = 6.0", ["'period'", "[mission]"]),
-    ("ardupilot-copter", "[score]\n", "[score]\nmetric = \"rms\"\n", ["'metric'", "[score]", "rms_max_m"]),
+    ("ardupilot-copter", "[score]\n", "[score]\nmetric = \"rms\"\n", ["'metric'", "[score]", "unsafe_rms_ratio"]),
     ("ardupilot-copter", 'frame = "quad-3d"', 'frame = "quad-3d"\nparam_encoding = "c_cast"',
      ["'param_encoding'", "[vehicle]"]),
     ("sim-planar", "[safety]", "[generations]\nA = 1\n\n[safety]", ["[generations]"]),
@@ -102,9 +102,9 @@ def test_bad_values_are_refused(tmp_path, old, new, words):
 
 
 def test_score_keys_are_the_fields_of_one_dataclass(tmp_path):
-    path = _variant(tmp_path, "ardupilot-copter", "[score]\n", "[score]\nrms_max_m = 2.0\n")
+    path = _variant(tmp_path, "ardupilot-copter", "unsafe_rms_ratio = 2.0\n", "unsafe_rms_ratio = 3.0\nrms_ref_m = 0.2\n")
     p = load_profile(path)
-    assert p.score_spec.rms_max_m == 2.0 and p.section("score") == {"rms_max_m": 2.0}
+    assert p.score_spec.rms_ref_m == 0.2 and p.section("score") == {"unsafe_rms_ratio": 3.0, "rms_ref_m": 0.2}
     score = "[score]\nQ = [1, 0.1, 1, 0.1, 0.1, 0.1]\nj_hi = 5\n\n[mission]"
     path = _variant(tmp_path, "sim-planar", "[mission]", score)
     assert load_profile(path).score_spec.given() == {"Q": (1.0, 0.1, 1.0, 0.1, 0.1, 0.1), "j_hi": 5.0}

@@ -30,7 +30,7 @@ class VehicleClock:
         max_extrapolation_ms: how far :meth:`now_ms` may run ahead of the last received stamp.
     """
 
-    def __init__(self, max_extrapolation_ms: float = 100.0) -> None:
+    def __init__(self, max_extrapolation_ms: float = 300.0) -> None:
         self.last_ms: int | None = None
         self.last_wall = 0.0
         self.rate = 1.0  # vehicle ms per wall ms (the speed-up), smoothed

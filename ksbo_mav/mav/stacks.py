@@ -57,6 +57,17 @@ PX4 = Stack("px4", MAV_AUTOPILOT_PX4, "bytewise", {"guided": 393216, "hold": 505
             _PX4_NAMES, px4_mode_params=True, needs_stream=True)
 
 
+#: Parameters the autopilot itself writes while it boots and flies (measured on ArduCopter 4.7.0-dev and PX4 1.15.4
+#: SITL over a campaign from the ground): flight statistics, boot-time calibrations (baro ground pressure, the
+#: declination looked up from the GPS position), the learned hover throttle, the home point stored as mission item 0,
+#: per-flight ids. A campaign leaves every other parameter as its snapshot found it.
+AUTOPILOT_UPDATED = {
+    "ardupilot": ("STAT_BOOTCNT", "STAT_FLTTIME", "STAT_RUNTIME", "STAT_RESET", "MOT_THST_HOVER", "BARO1_GND_PRESS",
+                  "BARO2_GND_PRESS", "BARO3_GND_PRESS", "COMPASS_DEC", "MIS_TOTAL"),
+    "px4": ("LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO", "COM_FLIGHT_UUID"),
+}
+
+
 @dataclass(frozen=True)
 class Identity:
     """Who the vehicle is, from HEARTBEAT and AUTOPILOT_VERSION."""

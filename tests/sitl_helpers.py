@@ -1,0 +1,53 @@
+"""Shared pieces of the real-autopilot tests: run the tuner as its own process against a SITL, read a vehicle's
+full parameter set over a fresh connection, and compare it with a campaign's snapshot."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from ksbo_mav.mav.link import Endpoint
+from ksbo_mav.mav.snapshot import load_snapshot
+from ksbo_mav.mav.stacks import AUTOPILOT_UPDATED  # noqa: F401 - re-exported for the SITL tests
+from ksbo_mav.mav.vehicle import Vehicle
+
+
+
+def tool(*args: str, timeout: float = 400) -> subprocess.CompletedProcess:
+    """``ksbo-mav ARGS`` in its own process."""
+    env = dict(os.environ, MAVLINK20="1")
+    return subprocess.run([sys.executable, "-m", "ksbo_mav.cli", *args], capture_output=True, text=True,
+                          timeout=timeout, env=env)
+
+
+def endpoint(sitl, port: int | None = None) -> Endpoint:
+    if sitl.kind == "ardupilot":
+        return Endpoint("tcp", "127.0.0.1", port or sitl.tcp_ports[1])
+    return Endpoint("udp", "127.0.0.1", port or sitl.udp_port)
+
+
+def read_all(sitl, profile: str) -> tuple[dict[str, float], bool]:
+    """Every parameter of the vehicle (fresh download on a second connection) and whether it is armed."""
+    v = Vehicle.connect(endpoint(sitl), profile, sysid=250, compid=190)
+    try:
+        hb = v.link.wait_heartbeat(5.0)
+        return {n: p.value for n, p in v.params.table.items()}, bool(hb.base_mode & 128)
+    finally:
+        v.close()
+
+
+def param_diff(campaign: Path, now: dict[str, float]) -> dict[str, tuple[float, float]]:
+    """Parameters whose value differs from the campaign's snapshot: {name: (snapshot, now)}."""
+    snap = load_snapshot(campaign)
+    out = {}
+    for name, (value, _) in snap.params.items():
+        if name not in now or abs(now[name] - value) > 1e-6 * max(1.0, abs(value)):
+            out[name] = (value, now.get(name))
+    return out
+
+
+def trials(campaign: Path) -> list[dict]:
+    return [json.loads(p.read_text()) for p in sorted((campaign / "trials").glob("trial_*.json"))]

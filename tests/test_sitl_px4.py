@@ -1,0 +1,58 @@
+"""Issue 12 on a real PX4 SITL (SIH quad; ../shared/sitl/px4, or $KSBO_PX4_SITL): from the ground with fresh
+parameters, a campaign streams setpoints before OFFBOARD, retries arming while the preflight checks run, flies,
+lands and disarms; the parameters equal the snapshot afterwards; live scores equal `score`; accept, restore.
+
+The test (not the tool) sets COM_RCL_EXCEPT = 4 (OFFBOARD without RC), as a user with no RC would."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from sitl_helpers import AUTOPILOT_UPDATED, param_diff, read_all, tool, trials
+
+pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
+PROFILE = "px4-copter"
+
+
+@pytest.fixture(scope="module")
+def campaign(px4_sitl, tmp_path_factory):
+    assert px4_sitl.set_param("COM_RCL_EXCEPT", 4, int32=True) == 4
+    d = tmp_path_factory.mktemp("px4") / "camp"
+    r = tool("tune", str(d), "--udp", f"127.0.0.1:{px4_sitl.udp_port}", "--prior", "none", "--budget", "3",
+             "--json")
+    assert r.returncode == 0, r.stderr[-3000:]
+    return d, json.loads(r.stdout[r.stdout.index("{"):]), r.stderr
+
+
+def test_px4_campaign_from_the_ground(px4_sitl, campaign):
+    d, summary, log = campaign
+    assert "arming and taking off to 10 m" in log and "landed and disarmed" in log
+    recs = trials(d)
+    assert len(recs) == 4 and all(r["outcome"] == "ok" for r in recs)
+    # PX4 SIH tracks the figure-8 far worse than 1 m (lap-2 RMS ~1.4 m): the baseline is still the reference, P 0.5.
+    assert summary["baseline"]["rms_m"] > 0.5 and summary["baseline"]["P"] == pytest.approx(0.5)
+    assert all(r["score"]["P"] > 0 for r in recs)
+    now, armed = read_all(px4_sitl, PROFILE)
+    assert not armed
+    diff = param_diff(d, now)
+    assert set(diff) <= set(AUTOPILOT_UPDATED["px4"]), diff
+
+
+def test_px4_score_equals_live_and_accept_restore(px4_sitl, campaign):
+    d, summary, _ = campaign
+    for rec in trials(d):
+        r = tool("score", rec["tlog"], "--json")
+        assert r.returncode == 0, r.stderr
+        assert json.loads(r.stdout)["score"]["P"] == rec["score"]["P"]
+    port = ["--udp", f"127.0.0.1:{px4_sitl.udp_port}"]
+    r = tool("accept", str(d), *port)
+    assert r.returncode == 0, r.stderr
+    now, _ = read_all(px4_sitl, PROFILE)
+    for name, value in summary["best"]["values"].items():
+        assert now[name] == pytest.approx(value, rel=1e-6)
+    r = tool("restore", str(d), *port)
+    assert r.returncode == 0, r.stderr
+    now, _ = read_all(px4_sitl, PROFILE)
+    assert set(param_diff(d, now)) <= set(AUTOPILOT_UPDATED["px4"])
