@@ -135,3 +135,55 @@ def write_other_tlog(path: Path, laps: float = 2.0, sent: bool = True, err_scale
         t = 1.0 + k * 0.02
     wr.close()
     return path
+
+
+# --- PX4 ULog -------------------------------------------------------------------------------------------------
+_ULOG_TOPICS = {
+    "vehicle_local_position": ("uint64_t timestamp;float x;float y;float z;float vx;float vy;float vz;", "<Q6f"),
+    "vehicle_local_position_setpoint": ("uint64_t timestamp;float x;float y;float z;float vx;float vy;float vz;",
+                                        "<Q6f"),
+    "trajectory_setpoint": ("uint64_t timestamp;float[3] position;float[3] velocity;", "<Q6f"),
+    "vehicle_status": ("uint64_t timestamp;uint8_t nav_state;uint8_t arming_state;", "<QBB"),
+}
+
+
+def _ulog_msg(typ: bytes, payload: bytes) -> bytes:
+    return struct.pack("<HB", len(payload), typ[0]) + payload
+
+
+def write_ulg(path: Path, laps: float = 2.0, err_scale: float = 1.0, topics=tuple(_ULOG_TOPICS)) -> Path:
+    """A PX4 ULog of the same flight as :func:`write_bin`: OFFBOARD from T_GUIDED, AUTO.LAND at T_LAND, disarm."""
+    out = bytearray(b"ULog\x01\x12\x35\x01" + struct.pack("<Q", 0))
+    key = b"char[9] sys_name"
+    out += _ulog_msg(b"I", bytes([len(key)]) + key + b"PX4 synth")
+    for name in topics:
+        out += _ulog_msg(b"F", f"{name}:{_ULOG_TOPICS[name][0]}".encode())
+    ids = {}
+    for i, name in enumerate(topics):
+        ids[name] = i
+        out += _ulog_msg(b"A", struct.pack("<BH", 0, i) + name.encode())
+    us = lambda t: int(round(t * 1e6))  # noqa: E731
+
+    def data(name, *values):
+        if name in ids:
+            out.extend(_ulog_msg(b"D", struct.pack("<H", ids[name]) + struct.pack(_ULOG_TOPICS[name][1], *values)))
+
+    state = None
+    t, k = 1.0, 0
+    while t < T_DISARM + 1.0:
+        nav, arm = (14, 2) if T_GUIDED <= t < T_LAND else ((18, 2) if T_LAND <= t < T_DISARM else (4, 1))
+        if (nav, arm) != state or k % 50 == 0:
+            data("vehicle_status", us(t), nav, arm)
+            state = (nav, arm)
+        p, v = target(t, laps)
+        a = p + error([t], err_scale)[0]
+        data("vehicle_local_position", us(t), *a, *v)
+        if k % 5 == 0 and T_GUIDED <= t < T_LAND:
+            data("vehicle_local_position_setpoint", us(t), *p, *v)
+        if k % 10 == 0 and T_GUIDED <= t < T_LAND:
+            data("trajectory_setpoint", us(t - 0.001), *p, *v)
+        k += 1
+        t = 1.0 + k * 0.02
+    out += _ulog_msg(b"L", struct.pack("<BQ", 54, us(t)) + b"[commander] Disarmed")
+    path.write_bytes(bytes(out))
+    return path

@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from flightlog_helpers import EV, H_RMS, MISSION, T0, write_bin, write_other_tlog
+from flightlog_helpers import EV, H_RMS, MISSION, T0, write_bin, write_other_tlog, write_ulg
 
 from ksbo_mav.cli import main
 from ksbo_mav.flightlog import detect_format, read_log
@@ -162,3 +162,38 @@ def test_read_log_is_streaming_friendly(tmp_path):
     """The DataFlash reader keeps only the wanted messages (the IMU filler is counted, never stored)."""
     log = read_log(write_bin(tmp_path / "a.bin"))
     assert log.info["messages"] > 3000 and len(log.actual) < log.info["messages"] / 5
+
+
+def test_ulg_scored_per_lap(tmp_path, capsys):
+    path = write_ulg(tmp_path / "log.dat")
+    assert detect_format(path) == "ulg"
+    rc, out, err = score_json(capsys, path)
+    assert rc == 0, err
+    (seg,) = out["segments"]
+    assert out["autopilot"] == "px4" and seg["mode"] == "OFFBOARD"
+    f8 = seg["figure8"]
+    assert f8["profile"] == "px4-copter" and f8["t0_s"] == pytest.approx(T0, abs=0.005)
+    for lap in f8["laps"]:
+        assert lap["vs_target"]["h_rms_m"] == pytest.approx(H_RMS, rel=0.03)
+        assert lap["vs_reference"]["h_rms_m"] == pytest.approx(H_RMS, rel=0.03)
+        assert lap["vs_reference"]["v_max_m"] == pytest.approx(EV, rel=0.01)
+    assert f8["score"]["complete"]
+
+
+def test_bad_ulgs_give_one_line_errors(tmp_path, capsys):
+    good = write_ulg(tmp_path / "good.ulg").read_bytes()
+    cut = tmp_path / "cut.ulg"
+    cut.write_bytes(good[: len(good) // 2 + 5])
+    err = _one_line_error(capsys, cut)
+    assert "truncated" in err and "segment 1" in err
+    assert main(["score", str(cut), "--partial"]) == 0
+    assert "warning:" in capsys.readouterr().out
+    (tmp_path / "head.ulg").write_bytes(good[:10])
+    assert "truncated" in _one_line_error(capsys, tmp_path / "head.ulg")
+    bad = bytearray(good)
+    bad[len(bad) // 3:len(bad) // 3 + 512] = b"\xff" * 512
+    (tmp_path / "bad.ulg").write_bytes(bytes(bad))
+    assert "is corrupted at offset" in _one_line_error(capsys, tmp_path / "bad.ulg")
+    nosp = write_ulg(tmp_path / "nosp.ulg", topics=("vehicle_local_position", "vehicle_status"))
+    err = _one_line_error(capsys, nosp)
+    assert "no vehicle_local_position_setpoint" in err

@@ -179,10 +179,12 @@ def _fit(tg: Track, run: tuple[float, float], log: FlightLog, seg: Segment, miss
             return None
         t0m = math.atan2(-cn[1], cn[0]) / w
         t0 = t0m + T * round((run[0] - t0m) / T)
-        # refine: least squares over the run, coarse then fine grid around the phase estimate
+        # refine: least squares over the run (its edges, where the setpoints start or stop moving, left out),
+        # coarse then fine grid around the phase estimate
+        inner = (t > run[0] + 0.3) & (t < run[1] - 0.3)
         for half, step in ((0.5, 0.01), (0.01, 0.0005)):
             cands = t0 + np.arange(-half, half + step / 2, step)
-            costs = [_cost(mission, t, pos, c) for c in cands]
+            costs = [_cost(mission, t[inner], pos[inner], c) for c in cands]
             t0 = float(cands[int(np.argmin(costs))])
     ref, _ = reference(mission, t - t0, np.zeros(3))
     offset = np.median(pos - ref, axis=0)
