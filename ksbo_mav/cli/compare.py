@@ -67,8 +67,6 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         from ksbo_mav.flightlog.plot import plot_compare
 
-        if not both_f8 and (sa["mode"] != sb["mode"]):
-            pass  # still plotted: different modes are shown as they are
         plot_compare([(f"A: {args.a}", log_a, sa), (f"B: {args.b}", log_b, sb)], mission, args.plot)
     if args.json:
         print(to_json({"kind": kind, "a": {"log": args.a, "segment": sa}, "b": {"log": args.b, "segment": sb},
