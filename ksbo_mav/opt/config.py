@@ -81,11 +81,13 @@ class AdaptiveConfig:
             dimension, and before any fit the scale starts at ``safety_scale_bounds[0]`` (small steps first).
         trust_region: candidates stay in a box around the incumbent whose half-width grows ×``tr_grow`` after
             ``tr_success`` safe improvements and shrinks ×``tr_shrink`` after an abort or crash (opt.trust_region).
-        max_aborts: abort budget. None = strict (the paper's mode: only certified queries, never stopped).
-            An integer k: while fewer than k trials aborted or crashed, trials the backup covers may leave the
-            certified set (certified with ``backup_beta`` instead of ``beta``, inside the trust region, where the
-            failure model predicts P(abort) ≤ ``abort_tol`` and P(crash) ≤ ``crash_tol``); once k is reached the
-            run ends, so k is never exceeded.
+        max_aborts: abort budget, a hard cap: once that many trials of the run aborted or crashed the run ends
+            (so it is never exceeded). None = no cap.
+        backup_beta: None = only certified queries (β), the paper's rule. A number enables exploration the
+            backup covers: while the abort budget lasts, trials may leave the certified set if certified with
+            ``backup_beta`` instead of ``beta``, inside the trust region, where the failure model predicts
+            P(abort) ≤ ``abort_tol`` and P(crash) ≤ ``crash_tol``. (Off by default: on the planar suite the
+            failures are mostly fast pitch divergences the backup cannot catch — BENCHMARKS.md, issue 13.)
         refly_last: the last this many evaluations re-fly the ``refly_top`` best completed points (by the
             recommendation's criterion); the recommendation is then the best mean over each point's flights.
         reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
@@ -105,7 +107,7 @@ class AdaptiveConfig:
     tr_shrink: float = 0.5
     tr_success: int = 2
     max_aborts: int | None = None
-    backup_beta: float = 1.0
+    backup_beta: float | None = None
     abort_tol: float = 0.3
     crash_tol: float = 0.1
     refly_last: int = 0
@@ -116,7 +118,7 @@ class AdaptiveConfig:
     def enabled(self) -> bool:
         """Whether any adaptive mechanism is on (off = the paper's strict safe BO, bit for bit)."""
         return (self.learn_safety_scale or self.trust_region or self.max_aborts is not None
-                or self.refly_last > 0 or self.reselect_every > 0)
+                or self.backup_beta is not None or self.refly_last > 0 or self.reselect_every > 0)
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,8 @@ class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, Safe
             raise InputError("signal_std must be positive")
         if self.max_aborts is not None and (isinstance(self.max_aborts, bool) or not int(self.max_aborts) >= 0):
             raise InputError("max_aborts must be a non-negative integer (or None for the strict mode)")
+        if self.backup_beta is not None and not self.backup_beta > 0:
+            raise InputError("backup_beta must be positive (or None: certified queries only)")
         if not (0 < self.tr_min <= self.tr_init <= self.tr_max):
             raise InputError("trust region sizes must satisfy 0 < tr_min <= tr_init <= tr_max")
 

@@ -130,7 +130,7 @@ class SafeBO:
             self.scale_history.append([float(v) for v in ls])
         if self.tr is not None and target is not None and np.ndim(target.spec.lengthscale):
             self.tr.set_weights(np.asarray(target.spec.lengthscale, dtype=float))
-        if self.adaptive.max_aborts is not None:
+        if self.adaptive.backup_beta is not None:
             self.failures = FailureModel(self._safety_lengthscales()).fit(self.X, ~self.complete, self.crashed)
 
     def _scale_model(self) -> SafetyModel | None:
@@ -159,7 +159,7 @@ class SafeBO:
         k, a = self.config.refit_every, self.adaptive
         every = a.scale_refit_every
         learn = a.learn_safety_scale and every > 0 and (self.iteration <= 4 * every or self.iteration % every == 0)
-        if learn or (k and self.iteration % k == 0) or (not done and a.max_aborts is not None):
+        if learn or (k and self.iteration % k == 0) or (not done and a.backup_beta is not None):
             self._refit(learn=learn)
         elif done:
             for m in (self.model, self.safety_model):
@@ -298,7 +298,8 @@ class SafeBO:
         """Next query point (certified safe unless ``kind`` is "fallback" or ends in "/backup")."""
         c, a = self.config, self.adaptive
         exploring = self.remaining is None or self.remaining > self.n_exploit()
-        self.relaxed = a.max_aborts is not None and exploring and self.aborts < a.max_aborts
+        budget_left = a.max_aborts is None or self.aborts < a.max_aborts
+        self.relaxed = a.backup_beta is not None and exploring and budget_left
         try:
             return self._propose()
         finally:

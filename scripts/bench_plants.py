@@ -1,0 +1,180 @@
+"""Issue 13 benchmark: safe BO over the planar plant suite (nominal + variants), with monitor or strict.
+
+One process, BLAS pinned to one thread; each run appends one JSON line to ``--out`` (so partial results survive
+and runs can be added later), ``--report`` turns the lines into the BENCHMARKS.md section.
+
+    python scripts/bench_plants.py run --plants nominal,mass+30 --methods ksbo-adaptive --seeds 0-9 \
+        --mode monitor --budget 100 --out bench-runs/plants.jsonl
+    python scripts/bench_plants.py report bench-runs/plants.jsonl [--write]
+
+Per run: the recommendation is re-flown on the 8 fixed initial conditions of that plant (with the run's mode:
+with the monitor a re-flight may abort or crash) → E[P]; the run's own flights are counted as complete /
+aborted / crashed and as the paper's unsafe (P < 0). The best E[P] known per plant is the best re-flown
+recommendation over every run of that plant in the file (and the nominal oracle gains re-flown on it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ORACLE = np.array([0.2367, 0.007699, 0.8752, 3.0, 0.000393, 2.662, 1.167e4, 88.22, 9777.0])
+
+
+def _seeds(text: str) -> list[int]:
+    out: list[int] = []
+    for part in text.split(","):
+        a, _, b = part.partition("-")
+        out += list(range(int(a), int(b) + 1)) if b else [int(a)]
+    return out
+
+
+def _opt(items: list[str]) -> dict[str, Any]:
+    out = {}
+    for item in items:
+        k, _, v = item.partition("=")
+        out[k] = json.loads(v)
+    return out
+
+
+def run_one(plant: str, method: str, seed: int, mode: str, budget: int, n_prior: int,
+            options: dict[str, Any]) -> dict[str, Any]:
+    import ksbo_mav
+    from ksbo_mav.objective import SimObjective
+    from scipy.stats import qmc
+
+    monitor = mode == "monitor"
+    obj = SimObjective(seed=seed, plant=plant, monitor=monitor)
+    prof = obj.profile
+    prior = None
+    n_prior_unsafe = 0
+    if n_prior:
+        lo, hi = prof.bounds[:, 0], prof.bounds[:, 1]
+        U = qmc.LatinHypercube(d=len(lo), seed=seed).random(n_prior)
+        pX = lo + U * (hi - lo)
+        flights = [obj(x) for x in pX]
+        py = np.array([f if isinstance(f, float) else (f.value if f.value is not None else -1.0) for f in flights])
+        n_prior_unsafe = int(np.sum(py < 0))
+        prior = (pX, py)
+    t0 = time.perf_counter()
+    r = ksbo_mav.optimize(obj, prof.default, prof.bounds, budget=budget, method=method, seed=seed, prior=prior,
+                          y_max=1.0, **options)
+    wall = time.perf_counter() - t0
+    judge = SimObjective(plant=plant, monitor=monitor)
+    P, counts = judge.expected_outcomes(r.x)
+    props = r.info.get("proposals", [])
+    return {
+        "plant": plant, "method": method, "seed": seed, "mode": mode, "budget": budget, "n_prior": n_prior,
+        "options": options, "EP": float(P[0]), "reflown_counts": counts[0].tolist(), "x": r.x.tolist(),
+        "nfev": r.nfev, "n_unsafe": r.n_unsafe, "n_aborted": r.n_aborted, "n_crashed": r.n_crashed,
+        "n_prior_unsafe": n_prior_unsafe, "s_per_iter": float(np.mean(r.seconds[1:])) if r.nfev > 1 else 0.0,
+        "s_per_iter_last20": float(np.mean(r.seconds[-20:])) if r.nfev > 20 else None,
+        "wall_s": wall, "orders": list(r.orders or ()), "reselection_changes": r.info.get("reselection_changes"),
+        "stopped": r.info.get("stopped"), "kinds": [p["kind"] for p in props],
+        "first_unsafe_at": [i for i, v in enumerate(r.y) if v < 0][:10],
+    }
+
+
+def cmd_run(a: argparse.Namespace) -> None:
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
+    out = Path(a.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    for plant in a.plants.split(","):
+        for method in a.methods.split(","):
+            for seed in _seeds(a.seeds):
+                rec = run_one(plant, method, seed, a.mode, a.budget, a.prior, _opt(a.opt or []))
+                rec["tag"] = a.tag
+                with out.open("a") as fh:
+                    fh.write(json.dumps(rec) + "\n")
+                print(f"{plant:11s} {method:14s} {a.mode:7s} s{seed:<3d} E[P] {rec['EP']:+.3f} "
+                      f"refl {rec['reflown_counts']} unsafe {rec['n_unsafe']} ab {rec['n_aborted']} "
+                      f"cr {rec['n_crashed']} nfev {rec['nfev']} {rec['wall_s']:.0f}s", flush=True)
+
+
+def _med(v: list[float]) -> str:
+    return f"{np.median(v):.3f} [{min(v):.3f}, {max(v):.3f}]" if v else "–"
+
+
+def best_known(recs: list[dict]) -> dict[str, tuple[float, str]]:
+    """Per plant: best re-flown E[P] over the runs in the file and the nominal oracle gains."""
+    from ksbo_mav.objective import SimObjective
+
+    best: dict[str, tuple[float, str]] = {}
+    for plant in sorted({r["plant"] for r in recs}):
+        P, _ = SimObjective(plant=plant).expected_outcomes(ORACLE)
+        best[plant] = (float(P[0]), "nominal oracle gains re-flown (strict)")
+        for r in recs:
+            if r["plant"] == plant and r["EP"] > best[plant][0]:
+                best[plant] = (r["EP"], f"{r['method']} {r['mode']} seed {r['seed']} recommendation")
+    return best
+
+
+def report(recs: list[dict]) -> str:
+    best = best_known(recs)
+    keys = sorted({(r["tag"] or "", r["mode"], r["method"], r["n_prior"], r["budget"]) for r in recs})
+    lines = []
+    for tag, mode, method, n_prior, budget in keys:
+        setting = f"{mode}, {'%d LHS + ' % n_prior if n_prior else 'from a0, '}{budget} flights" + \
+                  (f", {tag}" if tag else "")
+        lines += [f"**{method}** — {setting}", "",
+                  "| plant | seeds | re-flown E[P] median [min, max] | % of best known | seeds 0 crashes "
+                  "| crashes total | aborts median [max] | P<0 flights median [max] | re-flights aborted/crashed "
+                  "| s/iter |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
+        for plant in sorted({r["plant"] for r in recs}, key=lambda p: (p != "nominal", p)):
+            rs = [r for r in recs if (r["tag"] or "", r["mode"], r["method"], r["n_prior"], r["budget"])
+                  == (tag, mode, method, n_prior, budget) and r["plant"] == plant]
+            if not rs:
+                continue
+            ep = [r["EP"] for r in rs]
+            b = best[plant][0]
+            rf = np.sum([r["reflown_counts"] for r in rs], axis=0)
+            ab = [r["n_aborted"] for r in rs]
+            un = [r["n_unsafe"] for r in rs]
+            lines.append(
+                f"| {plant} | {len(rs)} | {_med(ep)} | {100 * np.median(ep) / b:.0f} % | "
+                f"{sum(r['n_crashed'] == 0 for r in rs)}/{len(rs)} | {sum(r['n_crashed'] for r in rs)} | "
+                f"{np.median(ab):.0f} [{max(ab)}] | {np.median(un):.0f} [{max(un)}] | {rf[1]}/{rf[2]} of "
+                f"{int(rf.sum())} | {np.median([r['s_per_iter'] for r in rs]):.2f} |")
+        lines.append("")
+    lines += ["Best E[P] known per plant (how found):", ""]
+    lines += [f"- {p}: {v:.3f} ({how})" for p, (v, how) in best.items()]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("--plants", default="nominal")
+    r.add_argument("--methods", default="ksbo-adaptive")
+    r.add_argument("--seeds", default="0-9")
+    r.add_argument("--mode", choices=("monitor", "strict"), default="monitor")
+    r.add_argument("--budget", type=int, default=100)
+    r.add_argument("--prior", type=int, default=0, help="LHS prior flights (the paper setting: 36)")
+    r.add_argument("--opt", action="append", help="optimizer option key=JSON value")
+    r.add_argument("--tag", default="")
+    r.add_argument("--out", default="bench-runs/plants.jsonl")
+    p = sub.add_parser("report")
+    p.add_argument("file")
+    p.add_argument("--tag", default=None, help="only runs with this tag")
+    a = ap.parse_args(argv)
+    if a.cmd == "run":
+        cmd_run(a)
+    else:
+        recs = [json.loads(line) for line in Path(a.file).read_text().splitlines() if line.strip()]
+        if a.tag is not None:
+            recs = [x for x in recs if x.get("tag", "") == a.tag]
+        print(report(recs))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
