@@ -5,9 +5,10 @@ armed) with the autopilot's target logged. In each segment:
 
 * errors against the autopilot's own logged target, at the target's sample times (position interpolated there):
   horizontal ``hypot(dN, dE)`` and vertical ``|dD|``, RMS and max;
-* the figure-8 of the profile's mission, when the targets follow it: recognised by a least-squares fit of the
-  mission's sinusoids (phase -> start time ``t0``, constant offset -> where it was flown), or taken exactly from a
-  ksbo trial marker when the log has one. Then per lap: errors against the target and against the analytic
+* every figure-8 of the profile's mission (a campaign flies several in one GUIDED stretch, holding still between
+  them), where the targets follow it: recognised by a least-squares fit of the mission's sinusoids (phase -> start
+  time ``t0``, constant offset -> where it was flown), or taken exactly from a ksbo trial marker when the log has
+  one. Then per lap: errors against the target and against the analytic
   reference ``Mission.setpoint_at(t - t0) + offset`` at the position's own sample times, so the two can be compared;
   and, when at least the mission's laps were flown, the profile's score ``P`` from
   :meth:`ksbo_mav.mav.mission.Mission.score` on the position resampled at the mission's control instants
