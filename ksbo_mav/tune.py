@@ -97,6 +97,11 @@ class Journal:
         return [e for e in self.entries if e["kind"] == kind]
 
 
+#: Non-gain failures worth another try: this computer fell behind the vehicle, or the telemetry was too sparse.
+RETRY_OUTCOMES = ("client", "telemetry")
+RETRIES = 2
+
+
 class _Diverged(Exception):
     pass
 
@@ -223,6 +228,19 @@ class Campaign:
 
     # --- flying ----------------------------------------------------------------------------------------------
     def _fly(self, x: np.ndarray, kind: str, journal: Journal) -> Flight:
+        """Fly one trial; a trial spoiled by this computer or the link rather than the gains (setpoints late,
+        telemetry too sparse) is journalled as failed and flown again, up to :data:`RETRIES` times."""
+        for attempt in range(RETRIES + 1):
+            try:
+                return self._fly_once(x, kind, journal)
+            except TrialStopped as exc:
+                if exc.flight.outcome not in RETRY_OUTCOMES or attempt == RETRIES:
+                    raise
+                self.log(f"trial {exc.flight.meta['trial']} not counted ({exc.flight.meta['message']}); "
+                         "flying it again")
+        raise AssertionError("unreachable")
+
+    def _fly_once(self, x: np.ndarray, kind: str, journal: Journal) -> Flight:
         assert self.objective is not None
         try:
             f = self.objective.fly(x, label=kind)

@@ -104,3 +104,26 @@ def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
     assert [e["trial"] for e in entries] == [0, 1, 3, 4, 5]  # trial 2 was the one interrupted
     now, armed = read_all(ardupilot_sitl, PROFILE)
     assert not armed and set(param_diff(d, now)) <= set(AUTOPILOT_UPDATED["ardupilot"])
+
+
+def test_arming_refused_is_one_clear_line_and_nothing_recorded(tmp_path):
+    # A vehicle that will not arm (battery below its minimum arming voltage): the tool retries for 90 s of vehicle
+    # time while the vehicle says why, then stops with that reason on one line; no trial is recorded and nothing
+    # on the vehicle changed.
+    from conftest import sitl_or_skip
+
+    sitl = sitl_or_skip("ardupilot", 10)
+    try:
+        sitl.set_param("BATT_ARM_VOLT", 20.0)
+        d = tmp_path / "refused"
+        r = tune(sitl, d, "--budget", "3")
+        assert r.returncode == 2, r.stderr[-2000:]
+        last = r.stderr.strip().splitlines()[-1]
+        assert last.startswith("error: ") and "did not arm" in last and "below minimum arming voltage" in last, r.stderr[-2000:]
+        assert "retrying" in r.stderr
+        assert not (d / "journal.jsonl").exists() or not (d / "journal.jsonl").read_text().strip()
+        assert not list(d.glob("trials/trial_*.json"))
+        now, armed = read_all(sitl, PROFILE)
+        assert not armed and set(param_diff(d, now)) <= set(AUTOPILOT_UPDATED["ardupilot"])
+    finally:
+        sitl.stop()

@@ -56,3 +56,4 @@ def test_px4_score_equals_live_and_accept_restore(px4_sitl, campaign):
     assert r.returncode == 0, r.stderr
     now, _ = read_all(px4_sitl, PROFILE)
     assert set(param_diff(d, now)) <= set(AUTOPILOT_UPDATED["px4"])
+

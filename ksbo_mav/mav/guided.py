@@ -155,11 +155,13 @@ class Guided:
     # --- streaming ---------------------------------------------------------------------------------------------
     def follow(self, setpoint: Callable[[int], tuple[np.ndarray, np.ndarray | None, np.ndarray | None]], n: int,
                dt_ms: int, on_sample: Callable[[Any], None], log: Callable[[str], None] = lambda s: None,
-               resend_s: float = 0.1) -> int:
+               resend_s: float = 0.1, lag_ms: list[float] | None = None) -> int:
         """Stream setpoints ``setpoint(j)`` for j = 0..n, each sent once when the vehicle clock reaches
         ``t0 + j*dt_ms`` (t0 = now; stamped with that time), none skipped: if the client falls behind, the due ones
         go out in order. ``on_sample`` sees every new LOCAL_POSITION_NED (it may raise to abort). Returns t0 once a
-        sample stamped at or after ``t0 + n*dt_ms`` has arrived.
+        sample stamped at or after ``t0 + n*dt_ms`` has arrived. ``lag_ms`` (if given) receives, per step, how
+        far the vehicle's newest received stamp already was past the step's time when it went out: a slow client
+        (or machine) shows up here, a lossy link in the sequence numbers.
 
         In lockstep each setpoint is one simulator step; a setpoint with no answer within ``resend_s`` is re-sent
         (a lost packet must not stall the simulator).
@@ -178,6 +180,8 @@ class Guided:
                 while j <= due:
                     pos, vel, acc = setpoint(j)
                     self.send(pos, vel, acc, t_ms=t0 + j * dt_ms)
+                    if lag_ms is not None:
+                        lag_ms.append(max(0.0, float(clock.last_ms - (t0 + j * dt_ms))))
                     j, last_send = j + 1, time.monotonic()
                 while fresh:
                     on_sample(fresh.pop(0))
@@ -220,10 +224,10 @@ class Guided:
             self.parked = True
         self.hold_at(None)
 
-    def arm(self, timeout_s: float = 90.0) -> None:
+    def arm(self, timeout_s: float = 90.0, log: Callable[[str], None] = lambda s: None) -> None:
         """Arm, retrying while the vehicle says "temporarily rejected" / "failed" (preflight checks still running,
         no position estimate yet), within ``timeout_s`` of vehicle time; the vehicle's reason on one line."""
-        last = ""
+        last = known = ""
         start = self.tel.clock.last_ms if self.tel.clock.valid else None
         while True:
             result, reason = self.cmd.attempt(CMD_ARM, 1.0)
@@ -232,6 +236,11 @@ class Guided:
                     return
                 last = "accepted, but the heartbeat never showed the vehicle armed"
             elif result in (1, 4):
+                # Autopilots rate-limit repeated pre-arm messages: a refusal without text keeps the last reason.
+                reason = reason or known
+                known = reason
+                if refusal("arming", result, reason) != last:
+                    log(f"{refusal('arming', result, reason)}; retrying for up to {timeout_s:g} s")
                 last = refusal("arming", result, reason)
             else:
                 raise PreflightError(refusal("arming", result, reason))
@@ -272,11 +281,11 @@ class Guided:
         if self.stack.needs_stream:  # PX4: a position target above the vehicle, in OFFBOARD, then arm
             self.hold_at(np.array([here[0], here[1], -alt]))
             self.enter("guided")
-            self.arm()
+            self.arm(log=log)
         else:
             self.hold_at(None)
             self.enter("guided")
-            self.arm()
+            self.arm(log=log)
             result, reason = self.cmd.attempt(CMD_TAKEOFF, 0, 0, 0, float("nan"), float("nan"), float("nan"), alt)
             if result != 0:
                 raise PreflightError(refusal("takeoff", result, reason))

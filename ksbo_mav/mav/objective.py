@@ -107,6 +107,7 @@ class MavlinkObjective:
         link.taps.append(rec.feed)
         started = time.time()
         lost0, reasserts0 = v.telemetry.lost, v.telemetry.reasserts
+        self._lag: list[float] = []
         outcome, message, L, stop = "ok", "", 0, None
         try:
             try:
@@ -127,7 +128,8 @@ class MavlinkObjective:
             link.taps.remove(rec.feed)
             link.tlog.close()
             link.tlog = None
-        link_stats = {"lost_packets": v.telemetry.lost - lost0, "rate_reasserts": v.telemetry.reasserts - reasserts0}
+        link_stats = {"lost_packets": v.telemetry.lost - lost0, "rate_reasserts": v.telemetry.reasserts - reasserts0,
+                      **_lag_stats(self._lag, self.mission.window[0])}
         flight = self._record(i, stem, x, rec, outcome, message, restored, started, label, link_stats)
         self.last_flight = flight
         if stop is not None:
@@ -171,7 +173,7 @@ class MavlinkObjective:
         # sample is checked against the reference at its own stamp, and scored against the logged setpoints.
         g.follow(lambda j: m.setpoint_at(j * dt / 1000.0), n, dt,
                  lambda s: self._check(s, m.setpoint_at(min(max(s.time_boot_ms - t0, 0), n * dt) / 1000.0)[0]),
-                 self.log, resend_s=0.1)
+                 self.log, resend_s=0.1, lag_ms=self._lag)
         g.hold_at(m.setpoint_at(n * dt / 1000.0)[0])  # end on a position-only target (no dead reckoning)
         return n
 
@@ -218,6 +220,12 @@ class MavlinkObjective:
                      "no packet was lost (sequence numbers complete): the vehicle sent less - another ground "
                      "station's stream request, or a saturated link")
             outcome, message = "telemetry", f"{why}; {cause}"
+        if outcome == "ok" and link_stats.get("late_fraction", 0.0) > MAX_LATE_FRACTION:
+            # The vehicle flew stale setpoints: the tracking error measures this computer, not the gains.
+            outcome, message = "client", (
+                f"{100 * link_stats['late_fraction']:.0f} % of the scored lap's setpoints went out more than "
+                f"{LATE_MS:g} ms (vehicle time) late (max {link_stats['lag_max_ms']:.0f} ms): this computer could "
+                "not keep up with the vehicle - lower the simulation speed-up or the machine's load")
         if outcome != "ok":
             score["P"] = min(float(score["P"]), -1.0 / n)  # an aborted trial is unsafe, whatever its length
             score["safe"] = False
@@ -232,8 +240,22 @@ class MavlinkObjective:
         return Flight(gains=x, trajectory=traj, score=score, outcome=outcome, meta=meta)
 
 
+#: A setpoint sent more than LATE_MS of vehicle time after its step is late; more than MAX_LATE_FRACTION of the
+#: scored lap late and the trial measures the client, not the gains (outcome "client", retried by the campaign).
+LATE_MS, MAX_LATE_FRACTION = 100.0, 0.02
+
+
+def _lag_stats(lag: list[float], w: int) -> dict[str, float]:
+    """Setpoint lateness over the scored steps (w..): max, mean, fraction later than LATE_MS."""
+    scored = np.asarray(lag[w:], dtype=float)
+    if not scored.size:
+        return {}
+    return {"lag_max_ms": float(scored.max()), "lag_mean_ms": float(scored.mean()),
+            "late_fraction": float(np.mean(scored > LATE_MS))}
+
+
 def outcome_text(outcome: str) -> str:
-    return {**OUTCOMES, "telemetry": "telemetry too sparse to score",
+    return {**OUTCOMES, "telemetry": "telemetry too sparse to score", "client": "the tuner fell behind the vehicle",
             "preflight": "could not get ready to fly (arming / takeoff / positioning)"}.get(outcome, outcome)
 
 
