@@ -63,3 +63,8 @@ def test_one_element_arrays_and_numpy_scalars_are_accepted() -> None:
     vals = iter([np.float32(0.5), np.array([0.6]), np.array(0.7)])
     r = ksbo_mav.optimize(lambda x: next(vals), X0, BOUNDS, budget=3, method="random", seed=0)
     np.testing.assert_allclose(r.y, [0.5, 0.6, 0.7], rtol=1e-6)
+
+
+def test_unchecked_aborted_start_is_refused_by_the_safe_methods() -> None:
+    with pytest.raises(UnsafeStartError, match="did not complete"):
+        ksbo_mav.optimize(lambda x: Evaluation(None, Outcome.ABORTED), X0, BOUNDS, budget=3, check_x0=False)

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ksbo_mav.errors import UnsafeStartError
 from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig, part
 from ksbo_mav.opt.model import ModelSpec, SafetyModel, active_mask
 from ksbo_mav.opt.options import Options
@@ -104,6 +105,8 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
     d = problem.dim
     X, y = problem.data()
     done, crashed = _outcome_masks(problem)
+    if not done.any():
+        raise UnsafeStartError("no completed trial to start from: x0's trial did not complete (check_x0=False)")
     info: dict[str, Any] = {"options": opts}
     ksbo = method in ("ksbo", "ksbo-adaptive")
     if ksbo:
