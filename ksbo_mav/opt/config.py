@@ -74,6 +74,10 @@ class AdaptiveConfig:
     """Issue 13: learned safety scale, trust region, abort-and-restore exploration, re-flown recommendation.
 
     Attributes:
+        censor_aborts: aborted and crashed trials are censored: the GPs never see their value; they enter the
+            failure model (P(abort), P(crash)), which then restricts queries (and the recommendation) to points
+            predicted to abort with probability ≤ ``abort_tol``. False: they enter the GPs with their recorded value
+            (the paper's method, strict or not).
         learn_safety_scale: fit the safety GP's per-dimension lengthscales by marginal likelihood (log-normal
             hyperprior ``safety_scale_prior`` = (median, log-sd), bounds ``safety_scale_bounds``) every
             ``scale_refit_every`` evaluations (every evaluation for the first ``4 × scale_refit_every``), on
@@ -94,6 +98,7 @@ class AdaptiveConfig:
             by marginal likelihood (Algorithm 1 stays the first selection); 0 = never.
     """
 
+    censor_aborts: bool = False
     learn_safety_scale: bool = False
     safety_scale_prior: tuple[float, float] = (0.1, 1.0)
     safety_scale_bounds: tuple[float, float] = (0.01, 1.0)
@@ -117,7 +122,7 @@ class AdaptiveConfig:
     @property
     def enabled(self) -> bool:
         """Whether any adaptive mechanism is on (off = the paper's strict safe BO, bit for bit)."""
-        return (self.learn_safety_scale or self.trust_region or self.max_aborts is not None
+        return (self.censor_aborts or self.learn_safety_scale or self.trust_region or self.max_aborts is not None
                 or self.backup_beta is not None or self.refly_last > 0 or self.reselect_every > 0)
 
 

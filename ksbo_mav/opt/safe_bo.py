@@ -93,6 +93,12 @@ class SafeBO:
 
     # -- data ---------------------------------------------------------------------------------------------------
     @property
+    def gp_mask(self) -> np.ndarray:
+        """(n,) bool: trials the GPs are trained on — completed ones when aborts are censored, else all (an aborted
+        trial then enters with its recorded value, the behaviour of the paper's method)."""
+        return self.complete if self.adaptive.censor_aborts else np.ones_like(self.complete)
+
+    @property
     def aborts(self) -> int:
         """Trials of this run that aborted or crashed (prior excluded)."""
         return int(np.sum(~self.complete[self.n_prior :]))
@@ -115,7 +121,7 @@ class SafeBO:
             self.tr.center = self.incumbent()
 
     def _refit(self, learn: bool = False) -> None:
-        Xc, yc = self.X[self.complete], self.y[self.complete]
+        Xc, yc = self.X[self.gp_mask], self.y[self.gp_mask]
         for m in (self.model, self.safety_model):
             if m is not None:
                 m.fit(Xc, yc)
@@ -130,7 +136,7 @@ class SafeBO:
             self.scale_history.append([float(v) for v in ls])
         if self.tr is not None and target is not None and np.ndim(target.spec.lengthscale):
             self.tr.set_weights(np.asarray(target.spec.lengthscale, dtype=float))
-        if self.adaptive.backup_beta is not None:
+        if self.adaptive.backup_beta is not None or self.adaptive.censor_aborts:
             self.failures = FailureModel(self._safety_lengthscales()).fit(self.X, ~self.complete, self.crashed)
 
     def _scale_model(self) -> SafetyModel | None:
@@ -159,9 +165,9 @@ class SafeBO:
         k, a = self.config.refit_every, self.adaptive
         every = a.scale_refit_every
         learn = a.learn_safety_scale and every > 0 and (self.iteration <= 4 * every or self.iteration % every == 0)
-        if learn or (k and self.iteration % k == 0) or (not done and a.backup_beta is not None):
+        if learn or (k and self.iteration % k == 0) or (not done and self.failures is not None):
             self._refit(learn=learn)
-        elif done:
+        elif done or not a.censor_aborts:
             for m in (self.model, self.safety_model):
                 if m is not None:
                     m.add(x, y)
@@ -193,7 +199,7 @@ class SafeBO:
             mu = np.minimum(mu, self.config.y_max)
         b_ucb = self.config.beta if self.config.beta_ucb is None else self.config.beta_ucb
         beta = self.adaptive.backup_beta if self.relaxed else self.config.beta
-        yc = self.y[self.complete]
+        yc = self.y[self.gp_mask]
         cap = yc.max() if self.config.cap_mean and yc.size else np.inf
         if self.config.y_max is not None:
             cap = min(cap, self.config.y_max)
@@ -209,8 +215,8 @@ class SafeBO:
 
     def feasible(self, Z: np.ndarray, lcb: np.ndarray) -> np.ndarray:
         """(m,) bool: Z (m, d) with lower bounds ``lcb`` (m,) certified (LCB ≥ p_min, no unsafe or failed trial
-        nearby); with a trust region also inside it, and while :attr:`relaxed` also predicted to abort and crash
-        rarely enough (the backup covers the rest)."""
+        nearby); with a trust region also inside it, and — once trials have aborted, or while :attr:`relaxed` —
+        predicted by the failure model to abort and crash rarely enough (censored aborts steer the search)."""
         ok = lcb >= self.p_min
         r = self.config.exclusion_radius
         bad = self.X[(self.y < self.p_min) | ~self.complete]
@@ -220,7 +226,7 @@ class SafeBO:
             ok[idx[d2 < r * r]] = False
         if self.tr is not None and ok.any():
             ok &= self.tr.contains(Z)
-        if self.relaxed and self.failures is not None and ok.any():
+        if self.failures is not None and (self.relaxed or not self.complete.all()) and ok.any():
             p_abort, p_crash = self.failures.predict(Z[ok])
             idx = np.flatnonzero(ok)
             ok[idx[(p_abort > self.adaptive.abort_tol) | (p_crash > self.adaptive.crash_tol)]] = False
@@ -344,7 +350,7 @@ class SafeBO:
             smooth = SafetyModel(self.model.spec.with_(signal_std=self.model.signal_std,
                                                        noise_std=self.config.recommend_noise * self.model.signal_std),
                                  self.model.dim, self.p_min, self.model.seed)
-            smooth.fit(self.X[self.complete], self.y[self.complete])
+            smooth.fit(self.X[self.gp_mask], self.y[self.gp_mask])
             mu_s, sd_s = smooth.predict(self.X)
             mu, lcb = mu_s, mu_s - self.config.beta * sd_s
         return mu, lcb
@@ -357,6 +363,8 @@ class SafeBO:
         """
         _, _, lcb_strict, _ = self.bounds(self.X)
         ok = (self.y >= self.p_min) & (lcb_strict >= self.p_min) & self.complete
+        if self.failures is not None and not self.complete.all():
+            ok &= self.failures.predict(self.X)[0] <= self.adaptive.abort_tol  # not next to aborted trials
         mu, lcb = self.smoothed()
         if not ok.any():
             ok = (self.y >= self.p_min) & self.complete

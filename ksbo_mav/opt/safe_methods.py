@@ -92,7 +92,7 @@ def _switch_orders(bo: SafeBO, orders: tuple[int, ...]) -> None:
     old = bo.model
     spec = old.spec.with_(orders=tuple(orders), signal_std=old.signal_std, noise_std=old.noise_std)
     bo.model = SafetyModel(spec, old.dim, old.p_min, old.seed)
-    bo.model.fit(bo.X[bo.complete], bo.y[bo.complete])
+    bo.model.fit(bo.X[bo.gp_mask], bo.y[bo.gp_mask])
 
 
 def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | None) -> OptimizeResult:
@@ -126,7 +126,7 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
 
     def after(b: SafeBO) -> None:
         if every and b.iteration % every == 0 and b.complete.sum() >= 2:
-            new = reselect_by_evidence(b.model, b.X[b.complete], b.y[b.complete], opts, b.iteration)
+            new = reselect_by_evidence(b.model, b.X[b.gp_mask], b.y[b.gp_mask], opts, b.iteration)
             selections.append(new)
             if new.changed:
                 _switch_orders(b, new.orders)
