@@ -28,7 +28,7 @@ def run_one(seed: int, budget: int, out: Path) -> dict:
     from ksbo_mav.mav.link import Endpoint
     from ksbo_mav.objective import SimObjective
     from ksbo_mav.profiles import load_profile
-    from ksbo_mav.tune import Campaign, CampaignConfig
+    from ksbo_mav.campaign import Campaign, CampaignConfig
     from ksbo_sim.process import free_udp_port
     from ksbo_sim.testing import SimProcess, read_params
 
@@ -52,7 +52,7 @@ def run_one(seed: int, budget: int, out: Path) -> dict:
     from threadpoolctl import threadpool_limits
 
     from ksbo_mav import optimize
-    from ksbo_mav.tune import optimizer_options
+    from ksbo_mav.campaign import optimizer_options
 
     camp = json.loads((d / "campaign.json").read_text())
     prior = json.loads((d / "prior.json").read_text())

@@ -12,8 +12,9 @@ import pytest  # noqa: E402
 from ksbo_sim.sitl import SitlNotFound, find_run_script, start_sitl  # noqa: E402
 
 # Each SITL fixture gets its own instance number (1..9: PX4 instances >= 10 all send to one port), so a SITL
-# still shutting down never shares ports with the next one.
-_instances = itertools.count()
+# still shutting down never shares ports with the next one; the start depends on the process id, so two test runs
+# on one machine rarely pick the same ports.
+_instances = itertools.count(os.getpid() % 9)
 
 
 def sitl_or_skip(kind: str, speedup: float, **kw):

@@ -16,7 +16,7 @@ import pytest
 from mav_tune_helpers import baseline, fresh_read, sim_and_endpoint
 
 from ksbo_mav.cli import main
-from ksbo_mav.tune import Campaign, CampaignConfig
+from ksbo_mav.campaign import Campaign, CampaignConfig
 
 pytestmark = [pytest.mark.network]
 
@@ -47,8 +47,12 @@ def test_short_campaign_improves_then_restores_accept_and_restore_commands(tmp_p
         assert summary["best"]["P_confirm"] > summary["baseline"]["P"] + 0.2  # 0.19 -> ~0.8 in practice
         assert summary["n_trials"] == 7 and not summary["accepted"]
         assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
-        for name in ("convergence", "safety", "trajectory"):
+        for name in ("convergence", "trajectory"):
             assert Path(summary["plots"][name]).stat().st_size > 0
+        # The safety plot exists only when something was unsafe, aborted or failed; else the report says so.
+        nothing_bad = summary["n_unsafe"] == summary["n_aborted"] == summary["n_crashed"] == summary["n_failed"] == 0
+        assert (summary["plots"]["safety"] == "none") == nothing_bad
+        assert nothing_bad or Path(summary["plots"]["safety"]).stat().st_size > 0
         for f in ("campaign.json", "prior.json", "result.json", "snapshot/vehicle.param", "snapshot/vehicle.params"):
             assert (d / f).exists()
         # Every journalled trial has its record and tlog, and the record's score is the tlog's score.

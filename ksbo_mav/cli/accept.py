@@ -20,7 +20,7 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ksbo_mav.tune import accept_campaign
+    from ksbo_mav.campaign import accept_campaign
 
     best = accept_campaign(args.dir, endpoint_from_args(args), log=lambda s: print(s), timeout=args.timeout,
                             sysid=args.sysid, compid=args.compid)

@@ -30,7 +30,7 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from ksbo_mav.cli.tune import Display, print_summary
     from ksbo_mav.mav.link import Endpoint
-    from ksbo_mav.tune import Campaign, CampaignConfig
+    from ksbo_mav.campaign import Campaign, CampaignConfig
 
     port = free_udp_port()
     print(f"starting the simulator (lockstep), tuner listening on udp 127.0.0.1:{port} ...")

@@ -17,7 +17,7 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ksbo_mav.tune import restore_snapshot
+    from ksbo_mav.campaign import restore_snapshot
 
     endpoint = endpoint_from_args(args)
     values = restore_snapshot(args.snapshot, endpoint, log=lambda s: print(s), timeout=args.timeout,

@@ -1,36 +1,41 @@
-"""`ksbo-mav tune`: tune a MAVLink vehicle's gains by safe BO over flown figure-8 trials (see ksbo_mav.tune)."""
+"""`ksbo-mav tune`: tune a MAVLink vehicle's gains by safe BO over flown figure-8 trials (see ksbo_mav.campaign)."""
 
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 from typing import Any
 
 from ksbo_mav.cli.common import add_connection_args, endpoint_from_args, positive_int, to_json
 from ksbo_mav.errors import InputError
 
+#: Options that define a campaign; on --resume, one given with a different value than stored is refused.
+_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm")
+
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "tune", help="tune a vehicle's gains over MAVLink (safe BO, journalled, restorable)",
-        description="Connects, snapshots every parameter to DIR before any write, flies figure-8 trials chosen by "
-                    "safe Bayesian optimisation with kernel selection, and restores the baseline gains at the end "
-                    "unless --accept. Ctrl-C aborts the current trial and restores the baseline.")
+        description="Connects, snapshots every parameter to DIR before any write, takes off if the vehicle is on "
+                    "the ground, flies the baseline gains and then figure-8 trials chosen by safe Bayesian "
+                    "optimisation with kernel selection, restores the baseline gains (unless --accept) and lands "
+                    "(unless --end hold). Ctrl-C aborts the current trial, restores the baseline and lands. "
+                    "Every option is checked before anything is connected or written; --dry-run prints the "
+                    "flight plan (airspace, flights, batteries) and changes nothing.")
     p.add_argument("dir", nargs="?", metavar="DIR", help="campaign directory (new)")
     p.add_argument("--resume", metavar="DIR", help="continue the campaign in DIR (after a crash or battery swap)")
     add_connection_args(p)
     p.add_argument("--profile", help="vehicle profile (default: from the vehicle's identity)")
-    p.add_argument("--method", default="ksbo", help="optimiser (ksbo, standard, safeopt, linebo; default ksbo)")
-    p.add_argument("--budget", type=positive_int, default=30, help="optimiser trials incl. the baseline (30)")
-    p.add_argument("--seed", type=int, default=0, help="optimiser seed (0)")
-    p.add_argument("--prior", default="auto", choices=("auto", "sim", "local", "none"),
-                   help="kernel-selection prior: simulator episodes (sim, default for the built-in vehicle) or "
-                        "a local LHS around the baseline flown on the vehicle (local)")
-    p.add_argument("--n-prior", type=int, default=0, metavar="N", help="prior size (default 36 sim / 8 local)")
-    p.add_argument("--confirm", type=int, default=1, metavar="N", help="re-fly the recommendation N times (1)")
+    p.add_argument("--method", help="optimiser: ksbo (default), ksbo-adaptive, standard, safeopt, linebo, ...")
+    p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30)")
+    p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
+    p.add_argument("--prior", choices=("auto", "sim", "local", "none"),
+                   help="kernel-selection prior: simulator episodes (sim, default for the built-in vehicle), a local "
+                        "LHS around the baseline flown on the vehicle (local, default otherwise), or none")
+    p.add_argument("--n-prior", type=int, metavar="N", help="prior size (default 36 sim / 8 local)")
+    p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
     p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end")
-    p.add_argument("--end", choices=("land", "hold"), default="land", help="after the campaign (land)")
+    p.add_argument("--end", choices=("land", "hold"), default="land",
+                   help="after the campaign: land and disarm (default) or hold position where it is")
     p.add_argument("--dry-run", action="store_true", help="connect, print the plan, change nothing")
     p.add_argument("--json", action="store_true", help="print the final summary as JSON")
     p.set_defaults(func=run)
@@ -48,79 +53,83 @@ class Display:
                                  TextColumn("{task.fields[status]}"), TimeElapsedColumn(), console=self.console,
                                  transient=True)
         self.task = self.progress.add_task("tune", total=budget, status="")
-        self.best = float("-inf")
 
     def log(self, text: str) -> None:
         self.console.print(text, markup=False)
 
-    def update(self, info: dict[str, Any]) -> None:
-        f, journal = info["flight"], info["journal"]
-        opt = journal.of("opt")
-        if info["kind"] == "opt" and f.P > self.best:
-            self.best = f.P
-        unsafe = sum(e["P"] < 0 for e in opt)
-        aborted = sum(e["outcome"] != "ok" for e in journal.entries)
+    def update(self, e: Any) -> None:
+        f = e.flight
         mark = "ok" if f.outcome == "ok" else f"ABORT {f.outcome}"
-        self.console.print(f"{info['kind']:>7} trial {f.meta['trial']:3d}  P = {f.P:+.4f}  {mark:<12} "
-                           f"best {self.best:+.4f}  unsafe {unsafe}  aborted {aborted}", highlight=False)
-        self.progress.update(self.task, completed=len(opt), status=f"best P {self.best:+.4f}")
+        self.console.print(f"{e.kind:>7} trial {f.meta['trial']:3d}  P = {f.P:+.4f}  {mark:<12} "
+                           f"best {e.best_P:+.4f}  unsafe {e.n_unsafe}  aborted {e.n_aborted}  "
+                           f"crashed {e.n_crashed}  failed {e.n_failed}", highlight=False, markup=False)
+        self.progress.update(self.task, completed=e.n_opt, status=f"best P {e.best_P:+.4f}")
 
 
-def _config(args: argparse.Namespace):
-    from ksbo_mav.tune import CampaignConfig
+def config_from_args(args: argparse.Namespace):
+    """The campaign settings, validated (InputError, one line) before anything is connected or written."""
+    from ksbo_mav.campaign import CampaignConfig, CampaignDir
 
+    given = {k: getattr(args, k) for k in _DEFINING if getattr(args, k) is not None}
+    common = {"accept": args.accept, "end": args.end, "sysid": args.sysid, "compid": args.compid}
     if args.resume:
-        try:
-            saved = json.loads(Path(args.resume, "campaign.json").read_text())["config"]
-        except (OSError, KeyError, json.JSONDecodeError):
-            raise InputError(f"{args.resume} holds no readable campaign.json to resume") from None
-        cfg = CampaignConfig(**saved)
-        cfg.dir = args.resume
-        cfg.accept = cfg.accept or args.accept
-        cfg.sysid = args.sysid if args.sysid is not None else cfg.sysid
-        cfg.compid = args.compid if args.compid is not None else cfg.compid
-        return cfg
+        if args.dir:
+            raise InputError("give either DIR (a new campaign) or --resume DIR, not both")
+        d = CampaignDir.at(args.resume)
+        stored = CampaignConfig.from_saved(d.read_settings()["config"], str(d.config))
+        clash = [f"--{k.replace('_', '-')} {v} (campaign: {getattr(stored, k)})" for k, v in given.items()
+                 if getattr(stored, k) != v]
+        if clash:
+            raise InputError(f"--resume {args.resume}: {', '.join(clash)} would change the campaign; resume it "
+                             "as it was (or start a new one in another directory)")
+        stored.dir = args.resume
+        stored.accept = stored.accept or args.accept
+        stored.end = args.end
+        stored.sysid = args.sysid if args.sysid is not None else stored.sysid
+        stored.compid = args.compid if args.compid is not None else stored.compid
+        return stored.validate()
     if not args.dir:
         raise InputError("give a campaign directory DIR (or --resume DIR)")
-    return CampaignConfig(dir=args.dir, profile=args.profile, method=args.method, budget=args.budget,
-                          seed=args.seed, prior=args.prior, n_prior=args.n_prior, confirm=args.confirm,
-                          accept=args.accept, end=args.end, sysid=args.sysid, compid=args.compid)
+    cfg = CampaignConfig(dir=args.dir, **given, **common).validate()
+    if not args.dry_run and CampaignDir.at(args.dir).exists():
+        raise InputError(f"{args.dir} already holds a campaign; use --resume {args.dir} or another directory")
+    return cfg
 
 
-def print_summary(s: dict[str, Any], log) -> None:
-    b, t = s["baseline"], s["best"]
+def print_summary(s: Any, log) -> None:
+    b, t = s.baseline, s.best
     rms = f", lap-2 RMS {b['rms_m']:.3f} m" if b.get("rms_m") is not None else ""
-    log(f"before: P = {b['P']:+.4f}  (baseline gains, trial {b.get('trial')}{rms})")
+    log(f"before: P = {b['P']:+.4f}  (baseline gains, trial {b['trial']}{rms})")
     pc = t["P_confirm"]
     log(f"after:  P = {pc:+.4f}  (recommended gains re-flown; model mean {t['P_model']:+.4f})"
         if pc is not None else f"after:  model mean P = {t['P_model']:+.4f}")
-    log(f"trials {s['n_trials']}, unsafe {s['n_unsafe']}, aborted {s['n_aborted']} "
-        f"(of which {s.get('n_failed', 0)} for reasons unrelated to the gains), {s['wall_s']:.0f} s")
+    log(f"trials {s.n_trials}: unsafe (P < 0) {s.n_unsafe}, aborted by the monitor {s.n_aborted}, crashed "
+        f"{s.n_crashed}, failed for reasons unrelated to the gains {s.n_failed}; {s.wall_s:.0f} s")
     for name, v in t["values"].items():
         log(f"  {name:<16} {b['values'][name]:>12.6g} -> {v:<12.6g}")
-    log("vehicle holds: " + ("the best gains (accepted)" if s["accepted"] else "the baseline gains (restored, verified)"))
-    log(f"logs: {s['dir']}/trials  journal: {s['dir']}/journal.jsonl  result: {s['dir']}/result.json")
-    for name, path in s.get("plots", {}).items():
-        log(f"plot ({name}): {path}")
+    log("vehicle holds: " + ("the best gains (accepted)" if s.accepted else "the baseline gains (restored, verified)")
+        + {"landed": "; landed and disarmed", "holding": "; hovering (--end hold)"}.get(s.ended, ""))
+    log(f"logs: {s.dir}/trials  journal: {s.dir}/journal.jsonl  result: {s.dir}/result.json")
+    for name, path in s.plots.items():
+        log(f"plot ({name}): {path}" if path != "none" else f"plot ({name}): none - no unsafe, aborted or failed trial")
 
 
 def run(args: argparse.Namespace) -> int:
-    from ksbo_mav.tune import Campaign
+    from ksbo_mav.campaign import Campaign
 
-    cfg = _config(args)
+    cfg = config_from_args(args)
     endpoint = endpoint_from_args(args)
     display = Display(cfg.budget)
     camp = Campaign(cfg, endpoint, resume=bool(args.resume), log=display.log, progress=display.update,
                     connect_timeout=args.timeout)
     if args.dry_run:
-        out = camp.run(dry_run=True)
-        print(out["plan"])
-        print("dry run: nothing was written to the vehicle")
+        print(camp.dry_run())
+        print("dry run: nothing was written to the vehicle or to disk")
         return 0
     with display.progress:
         summary = camp.run()
     if args.json:
-        print(to_json(summary))
+        print(to_json(summary.to_dict()))
     else:
         print_summary(summary, print)
     return 0

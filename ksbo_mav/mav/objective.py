@@ -25,18 +25,14 @@ import numpy as np
 
 from ksbo_mav.errors import KsboError, VehicleError
 from ksbo_mav.jsonio import dumps
-from ksbo_mav.mav.monitor import GAIN_OUTCOMES, OUTCOMES, Limits, Monitor
+from ksbo_mav.mav.monitor import Limits, Monitor
+from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.params import VerifyError
 from ksbo_mav.mav.snapshot import fsync_write
 from ksbo_mav.mav.tlog import TlogWriter
 from ksbo_mav.mav.trajectory import TrialRecorder, end_text, ref_text, start_text
 from ksbo_mav.mav.vehicle import LinkLost, PreflightError, Vehicle
 from ksbo_mav.objective import Flight, Trajectory
-
-
-#: Outcomes after which the campaign goes on: the flight says something about the gains (a refused write too: the
-#: vehicle will not take that value). Everything else (pilot, link, telemetry, error) stops the campaign.
-CONTINUE_OUTCOMES = ("ok", "verify", *GAIN_OUTCOMES)
 
 
 class TrialStopped(VehicleError):
@@ -108,21 +104,21 @@ class MavlinkObjective:
         started = time.time()
         lost0, reasserts0 = v.telemetry.lost, v.telemetry.reasserts
         self._lag: list[float] = []
-        outcome, message, L, stop = "ok", "", 0, None
+        outcome, message, L, stop = T.OK, "", 0, None
         try:
             try:
                 L = self._run(x, rec)
             except _Abort as a:
-                outcome, message = a.outcome, a.message
+                outcome, message = T(a.outcome), a.message
                 L = self._steps(rec)
             except VerifyError as exc:
-                outcome, message = "verify", str(exc)
+                outcome, message = T.VERIFY, str(exc)
             except LinkLost as exc:
-                outcome, message, L = "link", str(exc), self._steps(rec)
+                outcome, message, L = T.LINK, str(exc), self._steps(rec)
             except KeyboardInterrupt as exc:
-                outcome, message, L, stop = "sigint", "interrupted by the user", self._steps(rec), exc
+                outcome, message, L, stop = T.SIGINT, "interrupted by the user", self._steps(rec), exc
             except KsboError as exc:
-                outcome, message, L = "error", str(exc), self._steps(rec)
+                outcome, message, L = T.ERROR, str(exc), self._steps(rec)
             restored = self._finish(rec, outcome, L)
         finally:
             link.taps.remove(rec.feed)
@@ -136,11 +132,11 @@ class MavlinkObjective:
             raise stop
         outcome = flight.outcome
         if not restored:
-            raise TrialStopped(f"trial {i}: {flight.meta['message'] or outcome_text(outcome)}; baseline NOT "
+            raise TrialStopped(f"trial {i}: {flight.meta['message'] or outcome.text}; baseline NOT "
                                "restored - run `ksbo-mav restore` with the snapshot as soon as the vehicle is "
                                "reachable", flight)
-        if outcome not in CONTINUE_OUTCOMES or (outcome == "crash" and not v.is_sim):
-            raise TrialStopped(f"trial {i} aborted ({outcome_text(outcome)}): {flight.meta['message']}; "
+        if not outcome.continues or (outcome is T.CRASH and not v.is_sim):
+            raise TrialStopped(f"trial {i} aborted ({outcome.text}): {flight.meta['message']}; "
                                "baseline gains restored and verified", flight)
         return flight
 
@@ -177,22 +173,22 @@ class MavlinkObjective:
         g.hold_at(m.setpoint_at(n * dt / 1000.0)[0])  # end on a position-only target (no dead reckoning)
         return n
 
-    def _finish(self, rec: TrialRecorder, outcome: str, L: int) -> bool:
+    def _finish(self, rec: TrialRecorder, outcome: T, L: int) -> bool:
         """End marker, hold (when it is ours to command), restore the baseline with verification, park."""
         v = self.vehicle
         g = v.guided
         try:
-            if outcome == "link":
+            if outcome is T.LINK:
                 deadline = time.monotonic() + self.link_wait_s
                 while v.link.heartbeat_age() > v.heartbeat_timeout and time.monotonic() < deadline:
                     v.link.pump(0.2)
             if rec.t0 is not None:
                 v.statustext(end_text(self.mission.tag, L, outcome))
-            ours = outcome not in ("pilot", "crash", "link") and g.armed
-            if ours and g.position() is not None and outcome != "ok":
+            ours = outcome not in (T.PILOT, T.CRASH, T.LINK) and g.armed
+            if ours and g.position() is not None and outcome is not T.OK:
                 g.hold_at(g.position())  # stop where we are: position-only targets never time out
             v.restore(self.baseline_values)
-            if outcome in GAIN_OUTCOMES and outcome != "crash" and g.armed:
+            if outcome.gain_caused and outcome is not T.CRASH and g.armed:
                 g.wait(1.0)  # let the baseline gains settle the vehicle before anything else
             if g.armed and g.in_mode("guided"):
                 g.park()
@@ -204,7 +200,7 @@ class MavlinkObjective:
             self.log(f"restore failed: {exc}")
             return False
 
-    def _record(self, i: int, stem: Path, x: np.ndarray, rec: TrialRecorder, outcome: str, message: str,
+    def _record(self, i: int, stem: Path, x: np.ndarray, rec: TrialRecorder, outcome: T, message: str,
                 restored: bool, started: float, label: str, link_stats: dict[str, int]) -> Flight:
         n = self.mission.steps
         if rec.t0 is not None and rec.finished:
@@ -212,31 +208,31 @@ class MavlinkObjective:
         else:
             traj, info = _empty_trajectory(), {"L": 0, "outcome": outcome}
         score = self.mission.score(traj, rms_ref=info.get("rms_ref"))
-        if outcome == "ok" and not score["complete"]:
+        if outcome is T.OK and not score["complete"]:
             # Not the gains' fault: the lap could not be measured. Say why, and whether packets were lost.
             why = score.get("incomplete") or f"telemetry gaps in the scored lap ({info.get('unfilled')})"
             lost = link_stats["lost_packets"]
             cause = (f"{lost} packet(s) lost on the link (sequence gaps)" if lost else
                      "no packet was lost (sequence numbers complete): the vehicle sent less - another ground "
                      "station's stream request, or a saturated link")
-            outcome, message = "telemetry", f"{why}; {cause}"
-        if outcome == "ok" and link_stats.get("late_fraction", 0.0) > MAX_LATE_FRACTION:
+            outcome, message = T.TELEMETRY, f"{why}; {cause}"
+        if outcome is T.OK and link_stats.get("late_fraction", 0.0) > MAX_LATE_FRACTION:
             # The vehicle flew stale setpoints: the tracking error measures this computer, not the gains.
-            outcome, message = "client", (
+            outcome, message = T.CLIENT, (
                 f"{100 * link_stats['late_fraction']:.0f} % of the scored lap's setpoints went out more than "
                 f"{LATE_MS:g} ms (vehicle time) late (max {link_stats['lag_max_ms']:.0f} ms): this computer could "
                 "not keep up with the vehicle - lower the simulation speed-up or the machine's load")
-        if outcome != "ok":
+        if outcome is not T.OK:
             score["P"] = min(float(score["P"]), -1.0 / n)  # an aborted trial is unsafe, whatever its length
             score["safe"] = False
-        meta = {"trial": i, "label": label, "outcome": outcome, "outcome_text": outcome_text(outcome),
+        meta = {"trial": i, "label": label, "outcome": outcome.value, "outcome_text": outcome.text,
                 "message": message, "restored": restored, "tlog": str(stem.with_suffix(".tlog")),
                 "record": str(stem.with_suffix(".json")), "wall_s": time.time() - started,
                 "vehicle_values": self.vehicle.gains.to_vehicle(x), "trajectory": info, "link": link_stats}
         doc = {"gains": x.tolist(), "names": self.profile.names, "score": score, **meta}
         fsync_write(stem.with_suffix(".json"), dumps(doc, indent=1))
-        if outcome != "ok":
-            self.log(f"trial {i} aborted ({outcome_text(outcome)}): {message}")
+        if outcome is not T.OK:
+            self.log(f"trial {i} aborted ({outcome.text}): {message}")
         return Flight(gains=x, trajectory=traj, score=score, outcome=outcome, meta=meta)
 
 
@@ -254,9 +250,6 @@ def _lag_stats(lag: list[float], w: int) -> dict[str, float]:
             "late_fraction": float(np.mean(scored > LATE_MS))}
 
 
-def outcome_text(outcome: str) -> str:
-    return {**OUTCOMES, "telemetry": "telemetry too sparse to score", "client": "the tuner fell behind the vehicle",
-            "preflight": "could not get ready to fly (arming / takeoff / positioning)"}.get(outcome, outcome)
 
 
 def _empty_trajectory() -> Trajectory:

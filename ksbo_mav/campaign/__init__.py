@@ -1,0 +1,13 @@
+"""Tuning campaigns on a MAVLink vehicle: settings, directory layout, journal and replay, the runner, restore and
+accept, the report. See :mod:`ksbo_mav.campaign.runner` for the order of flights and
+:mod:`ksbo_mav.campaign.layout` for the files."""
+
+from ksbo_mav.campaign.access import accept_campaign, restore_snapshot
+from ksbo_mav.campaign.config import CampaignConfig, optimizer_options
+from ksbo_mav.campaign.journal import Journal, JournalEntry
+from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.runner import Campaign
+from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
+
+__all__ = ["Campaign", "CampaignConfig", "CampaignDir", "CampaignSummary", "Journal", "JournalEntry", "TrialEvent",
+           "accept_campaign", "optimizer_options", "restore_snapshot"]

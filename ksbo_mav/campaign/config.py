@@ -1,0 +1,101 @@
+"""A campaign's settings: one typed, validated object, checked before anything connects or is written."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from ksbo_mav.errors import InputError
+
+PRIOR_KINDS = ("auto", "sim", "local", "none")
+END_MODES = ("land", "hold")
+#: Settings that may differ on ``--resume`` (they do not change what the optimiser has seen).
+RESUMABLE = ("dir", "accept", "end", "sysid", "compid")
+
+
+@dataclass
+class CampaignConfig:
+    """What ``ksbo-mav tune`` was asked to do. :meth:`validate` checks every field once."""
+
+    dir: str
+    profile: str | None = None
+    method: str = "ksbo"
+    budget: int = 30
+    seed: int = 0
+    prior: str = "auto"  # "sim", "local", "none", "auto" (sim for the built-in planar vehicle, else local)
+    n_prior: int = 0  # 0 = default for the prior kind
+    confirm: int = 1
+    accept: bool = False
+    end: str = "land"  # "land" or "hold"
+    settle_s: float = 1.0
+    sysid: int | None = None  # our own MAVLink ids (None: the link's defaults)
+    compid: int | None = None
+    safety: dict[str, float] = field(default_factory=dict)
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def validate(self) -> "CampaignConfig":
+        """InputError naming the bad setting; also loads the profile (if named) and checks the optimiser options."""
+        from ksbo_mav.opt import METHODS
+        from ksbo_mav.opt.options import options_for
+        from ksbo_mav.profiles import load_profile
+
+        if self.method not in METHODS:
+            raise InputError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
+        for name, lo in (("budget", 1), ("confirm", 0), ("n_prior", 0)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+                raise InputError(f"{name} must be an integer >= {lo}, got {v!r}")
+        if self.prior not in PRIOR_KINDS:
+            raise InputError(f"unknown prior {self.prior!r}; choose {', '.join(PRIOR_KINDS)}")
+        if self.end not in END_MODES:
+            raise InputError(f"--end must be land or hold, got {self.end!r}")
+        for name in ("sysid", "compid"):
+            v = getattr(self, name)
+            if v is not None and not 1 <= v <= 255:
+                raise InputError(f"--{name} must be in 1..255, got {v}")
+        if not self.settle_s >= 0:
+            raise InputError(f"settle_s must be >= 0, got {self.settle_s}")
+        if self.profile is not None:
+            load_profile(self.profile)  # InputError for an unknown name or a bad file, before any connection
+        options_for(self.method, optimizer_options("none", self.options))
+        return self
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_saved(cls, saved: Any, where: str) -> "CampaignConfig":
+        """The config stored in campaign.json; InputError for unknown keys or bad values."""
+        if not isinstance(saved, dict):
+            raise InputError(f"{where}: 'config' is not an object")
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(saved) - known)
+        if unknown:
+            raise InputError(f"{where}: unknown campaign setting(s) {', '.join(unknown)}")
+        if "dir" not in saved:
+            raise InputError(f"{where}: 'config' lacks 'dir'")
+        try:
+            return cls(**saved).validate()
+        except TypeError as exc:
+            raise InputError(f"{where}: {exc}") from None
+
+    def conflicts(self, other: "CampaignConfig") -> list[str]:
+        """Settings (other than :data:`RESUMABLE`) where ``other`` differs from this stored config."""
+        a, b = self.to_dict(), other.to_dict()
+        return [k for k in a if k not in RESUMABLE and a[k] != b[k]]
+
+
+def optimizer_options(prior_kind: str, user: dict[str, Any]) -> dict[str, Any]:
+    """Optimiser keyword options of a tuning campaign: the campaign's defaults, then the user's ``user``.
+
+    Every mission score here is bounded above by 1 (P(a) <= 1; 3-D: 1 - RMS / (2 RMS_baseline)), which is also
+    the prior scale of P the benchmark campaign uses; the generic default (2 |P(a0)|) is far too tight. A simulator
+    prior (``prior_kind == "sim"``) is a dense cloud around the baseline of the same task: its good points are a
+    fair head start, so candidates may grow around any of them (``explore_from="all"``); a flown or no prior keeps
+    the library default, growth from the baseline gains.
+    """
+    base: dict[str, Any] = {"signal_std": 1.0, "y_max": 1.0}
+    if prior_kind == "sim":
+        base["explore_from"] = "all"
+    return {**base, **user}

@@ -1,0 +1,89 @@
+"""The campaign journal: one fsynced JSON line per flown trial, the campaign's memory across crashes.
+
+Kinds: ``opt`` (an optimiser evaluation; the first is the baseline), ``prior`` (a flown prior point),
+``confirm`` (a re-flight of the recommendation) and ``failed`` (a trial that ended for a reason unrelated to the
+gains — pilot, link, telemetry, a slow client: kept for the record, never given to the optimiser).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from ksbo_mav.errors import InputError
+from ksbo_mav.mav.outcome import TrialOutcome
+from ksbo_mav.objective import Flight
+
+KINDS = ("opt", "prior", "confirm", "failed")
+
+
+@dataclass(frozen=True)
+class JournalEntry:
+    kind: str
+    trial: int
+    x: tuple[float, ...]
+    P: float
+    outcome: TrialOutcome
+    record: str
+    restored: bool
+    rms: float | None = None  # 3-D missions: lap-2 RMS tracking error (m)
+
+    @classmethod
+    def of(cls, kind: str, f: Flight) -> "JournalEntry":
+        return cls(kind=kind, trial=int(f.meta["trial"]), x=tuple(float(v) for v in f.gains), P=float(f.P),
+                   outcome=TrialOutcome(f.outcome), record=str(f.meta["record"]), restored=bool(f.meta["restored"]),
+                   rms=f.score.get("rms_lap2_m"))
+
+    @classmethod
+    def parse(cls, doc: Any, where: str) -> "JournalEntry":
+        try:
+            e = cls(kind=str(doc["kind"]), trial=int(doc["trial"]), x=tuple(float(v) for v in doc["x"]),
+                    P=float(doc["P"]), outcome=TrialOutcome(doc["outcome"]), record=str(doc["record"]),
+                    restored=bool(doc["restored"]), rms=None if doc.get("rms") is None else float(doc["rms"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"{where}: not a journal entry ({exc})") from None
+        if e.kind not in KINDS:
+            raise InputError(f"{where}: unknown journal entry kind {e.kind!r}")
+        return e
+
+    def to_json(self) -> str:
+        d = asdict(self)
+        d["outcome"] = self.outcome.value
+        d["x"] = list(self.x)
+        return json.dumps(d)
+
+
+class Journal:
+    """Append-only JSON lines, each fsynced: a SIGKILL loses at most the trial being flown."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.entries: list[JournalEntry] = []
+        if path.exists():
+            lines = path.read_text().splitlines()
+            for n, line in enumerate(lines, 1):
+                if not line.strip():
+                    continue
+                try:
+                    doc = json.loads(line)
+                except json.JSONDecodeError:
+                    if n == len(lines):  # a half-written last line: that trial was lost with the process
+                        break
+                    raise InputError(f"{path}:{n}: corrupt journal line") from None
+                self.entries.append(JournalEntry.parse(doc, f"{path}:{n}"))
+
+    def append(self, entry: JournalEntry) -> None:
+        with open(self.path, "a") as fh:
+            fh.write(entry.to_json() + "\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        self.entries.append(entry)
+
+    def of(self, kind: str) -> list[JournalEntry]:
+        return [e for e in self.entries if e.kind == kind]
+
+    def has_trial(self, trial: int) -> bool:
+        return any(e.trial == trial for e in self.entries)

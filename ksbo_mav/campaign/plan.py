@@ -1,0 +1,43 @@
+"""The flight plan of a campaign, from the profile and the budget: what airspace it needs, how many flights, how
+long, and how many batteries — printed by ``ksbo-mav tune --dry-run`` (the README's real-flight checklist)."""
+
+from __future__ import annotations
+
+import math
+
+from ksbo_mav.profiles import Profile
+
+#: Per trial on top of the figure-8: move to the start and hover there (2 s), the settle with the trial gains,
+#: gain writes and the verified restore (~3 s on a telemetry radio). An estimate, not a measurement.
+OVERHEAD_S = 5.0
+#: Hover time of one battery pack used for the estimate (a typical 5 in - 10 in quad; change it to your own).
+PACK_MIN = 12.0
+
+
+def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settle_s: float) -> str:
+    """Multi-line plan: airspace, abort box, flights x duration, total and batteries."""
+    m, s = profile.mission_spec, profile.safety
+    if m.type == "figure8-ne":
+        east = m.scale_east_m if m.scale_east_m is not None else m.scale_m
+        area = (f"figure-8 {2 * m.scale_m:g} m north-south x {2 * east:g} m east-west at {m.center_up_m:g} m height, "
+                "centred on the local origin (home / EKF origin)")
+    else:
+        area = (f"figure-8 {2 * m.scale_m:g} m along x, {m.scale_m:g} m tall around {m.center_up_m:g} m height "
+                "(planar x-z)")
+    east_box = f"|east| <= {s.y_max_m:g} m, " if math.isfinite(s.y_max_m) else ""
+    trial_s = m.laps * m.period_s + settle_s + OVERHEAD_S
+    flights = 1 + n_prior + max(0, budget - 1) + confirm
+    total_min = flights * trial_s / 60.0
+    packs = math.ceil(total_min / (0.8 * PACK_MIN))
+    return "\n".join([
+        f"airspace: {area}",
+        f"abort box: |north| <= {s.x_max_m:g} m, {east_box}height {s.z_min_m:g}-{s.z_max_m:g} m, tilt "
+        f"<= {s.tilt_max_deg:g} deg, tracking error <= {s.tracking_error_max_m:g} m, heartbeat gap <= "
+        f"{s.heartbeat_timeout_s:g} s",
+        f"flights: {flights} trials (1 baseline + {n_prior} prior + {max(0, budget - 1)} optimiser + {confirm} "
+        f"confirmation) x ~{trial_s:.0f} s ({m.laps} x {m.period_s:g} s figure-8 + settle + ~{OVERHEAD_S:g} s) "
+        f"= ~{total_min:.0f} min in the air, plus takeoff and landing",
+        f"batteries: ~{packs} pack(s) of {PACK_MIN:g} min hover used to 80 % (an estimate; swap with Ctrl-C, land, "
+        "then --resume)",
+        "the tool arms, takes off and lands by itself; a pilot stays ready to take over (any mode change stops it)",
+    ])

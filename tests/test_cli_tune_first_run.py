@@ -1,0 +1,93 @@
+"""Issue 14, `tune` on a first run: every option is checked before anything is connected or written, a failed
+start leaves no directory, --resume refuses options that would change the stored campaign, a damaged
+campaign.json is one clear line, and --dry-run prints the flight plan. Real subprocesses (and the built-in
+simulator over loopback UDP for the dry run)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from test_cli_first_run import closed_tcp_port, one_line_error, run
+
+from ksbo_mav.campaign import CampaignConfig, CampaignDir
+from ksbo_sim.process import SimProcess, free_udp_port
+
+
+@pytest.mark.parametrize("bad,words", [
+    (["--method", "ksb"], ["unknown method 'ksb'", "ksbo"]),
+    (["--profile", "no-such-profile"], ["no-such-profile"]),
+    (["--n-prior", "-3"], ["n_prior"]),
+    (["--sysid", "300"], ["sysid", "1..255"]),
+])
+def test_bad_options_refused_before_connecting_and_nothing_written(tmp_path, bad, words):
+    d = tmp_path / "camp"
+    # A closed TCP port: if the tool tried to connect first, the error would be about the connection instead.
+    r = run("tune", str(d), "--tcp", f"127.0.0.1:{closed_tcp_port()}", *bad)
+    one_line_error(r, *words)
+    assert not d.exists()
+
+
+def test_failed_connection_leaves_no_directory(tmp_path):
+    d = tmp_path / "camp"
+    r = run("tune", str(d), "--udp", f"127.0.0.1:{free_udp_port()}", "--timeout", "1")
+    one_line_error(r, "no vehicle heartbeat")
+    assert not d.exists()
+
+
+def _stored(tmp_path, **changes):
+    d = CampaignDir.at(tmp_path / "camp")
+    d.root.mkdir()
+    cfg = CampaignConfig(dir=str(d.root), budget=10, method="ksbo")
+    doc = {"config": cfg.to_dict(), "profile": "sim-planar", "baseline": {}, "x0": [], "bounds": []}
+    doc.update(changes)
+    d.write_settings(doc)
+    return d
+
+
+def test_resume_refuses_options_that_change_the_campaign(tmp_path):
+    d = _stored(tmp_path)
+    before = d.config.read_text()
+    r = run("tune", "--resume", str(d.root), "--udp", f"127.0.0.1:{free_udp_port()}", "--method", "standard",
+            "--budget", "12")
+    one_line_error(r, "--method standard (campaign: ksbo)", "--budget 12 (campaign: 10)")
+    assert d.config.read_text() == before
+
+
+@pytest.mark.parametrize("damage,words", [
+    (lambda doc: doc["config"].update(methd="ksbo"), ["unknown campaign setting", "methd"]),
+    (lambda doc: doc.update(format=1), ["format 1", "format 2"]),
+    (lambda doc: doc.pop("x0"), ["lacks 'x0'"]),
+    (lambda doc: doc["config"].update(budget="many"), ["budget"]),
+])
+def test_damaged_campaign_json_is_one_line(tmp_path, damage, words):
+    d = _stored(tmp_path)
+    doc = json.loads(d.config.read_text())
+    damage(doc)
+    d.config.write_text(json.dumps(doc))
+    r = run("tune", "--resume", str(d.root), "--udp", f"127.0.0.1:{free_udp_port()}")
+    one_line_error(r, *words)
+
+
+def test_not_json_campaign_is_one_line(tmp_path):
+    d = _stored(tmp_path)
+    d.config.write_text("{ not json")
+    one_line_error(run("tune", "--resume", str(d.root), "--udp", f"127.0.0.1:{free_udp_port()}"),
+                   "not readable campaign settings")
+
+
+@pytest.mark.network
+def test_dry_run_prints_the_flight_plan_and_writes_nothing(tmp_path):
+    port = free_udp_port()
+    sim = SimProcess("--lockstep", out_port=port)
+    try:
+        d = tmp_path / "plan"
+        r = run("tune", str(d), "--udp", f"127.0.0.1:{port}", "--dry-run", "--budget", "12", "--prior", "local")
+    finally:
+        sim.stop()
+    assert r.returncode == 0, r.stderr
+    for words in ("airspace: figure-8", "abort box: |north| <= 2 m", "flights: 21 trials (1 baseline + 8 prior + "
+                  "11 optimiser + 1 confirmation)", "batteries:", "nothing was written"):
+        assert words in r.stdout, r.stdout
+    assert not d.exists()
