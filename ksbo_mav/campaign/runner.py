@@ -18,9 +18,11 @@ import numpy as np
 
 from ksbo_mav.campaign.access import check_identity, write_accepted
 from ksbo_mav.campaign.config import CampaignConfig, optimizer_options
+from ksbo_mav.campaign.ending import end_flight, safe_stop
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.plan import flight_plan
+from ksbo_mav.campaign.prior import campaign_prior
 from ksbo_mav.campaign.replay import JournalReplay
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
 from ksbo_mav.errors import InputError, KsboError, UnsafeStartError, VehicleError
@@ -120,33 +122,9 @@ class Campaign:
         return k
 
     def _prior(self, x0: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        kind = self._prior_kind()
-        if kind == "none":
-            return None
-        from ksbo_mav.select.design import lhs_design
-
-        lo, hi = bounds[:, 0], bounds[:, 1]
-        u0 = (x0 - lo) / (hi - lo)
-        if kind == "sim":
-            if self.dir.prior.exists():
-                doc = json.loads(self.dir.prior.read_text())
-                return np.array(doc["X"]), np.array(doc["y"])
-            from ksbo_mav.objective import SimObjective
-
-            n = self.cfg.n_prior or 36
-            X = lo + lhs_design(n, len(x0), "local", center=u0, radius=0.25, seed=self.cfg.seed) * (hi - lo)
-            y = SimObjective(self.vehicle.profile, seed=self.cfg.seed).batch(X)
-            fsync_write(self.dir.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist()}))
-            self.log(f"prior: {n} simulator episodes around the baseline (in process, nothing flown)")
-            return X, y
-        n = self.cfg.n_prior or 8
-        X = lo + lhs_design(n, len(x0), "local", center=u0, radius=0.1, seed=self.cfg.seed) * (hi - lo)
-        done = self.journal.of("prior")
-        y = [e.P for e in done]
-        for k in range(len(done), n):
-            self.log(f"prior trial {k + 1}/{n} (local LHS around the baseline)")
-            y.append(self._fly(X[k], "prior").P)
-        return X, np.array(y)
+        assert self.vehicle is not None and self.journal is not None
+        return campaign_prior(self._prior_kind(), self.cfg, self.dir, self.vehicle.profile, x0, bounds,
+                              [e.P for e in self.journal.of("prior")], lambda x: self._fly(x, "prior").P, self.log)
 
     # --- flying ----------------------------------------------------------------------------------------------
     def _fly(self, x: np.ndarray, kind: str) -> Flight:
@@ -265,41 +243,11 @@ class Campaign:
             v.close()
 
     def _safe_stop(self, base: dict[str, float]) -> None:
-        """After Ctrl-C or an error between trials: make sure the baseline is on the vehicle (verified)."""
-        v = self.vehicle
-        if v is None or v.link.closed:
-            return
-        try:
-            v.restore(base)
-            self.log("stopped: baseline gains restored and verified")
-        except (VehicleError, KeyboardInterrupt) as exc:
-            self.log(f"stopped: baseline NOT verified ({exc}); run `ksbo-mav restore {self.dir.root}`")
+        if self.vehicle is not None:
+            safe_stop(self.vehicle, base, str(self.dir.root), self.log)
 
     def _end_flight(self, error: bool) -> str:
-        """Leave the vehicle landed and disarmed (``--end land``, and after any stop below the mission altitude),
-        or holding where it is (``--end hold``): confirmed, or said why not. Returns what was done."""
-        v = self.vehicle
-        if v is None or v.link.closed or not v.armed:
-            return ""
-        g = v.guided
-        low = not g.height() >= 0.9 * float(v.mission.center_up)
-        try:
-            if self.cfg.end == "land" or (error and low):
-                self.log("landing" + (" (stopped below the mission altitude)" if self.cfg.end != "land" else ""))
-                g.land()
-                self.log("landed and disarmed (confirmed by the heartbeat)")
-                return "landed"
-            here = g.position()
-            if here is not None:
-                g.hold_at(here)
-            if v.stack.needs_stream:
-                g.park()
-            g.hold_at(None)
-            self.log(f"holding at {g.height():.1f} m in {v.stack.mode_name(g.heartbeat.custom_mode)} (--end hold)")
-            return "holding"
-        except (VehicleError, KeyboardInterrupt) as exc:
-            self.log(f"could not land/hold the vehicle: {exc}; it is now under its own failsafes - take over")
-            return "unknown"
+        return end_flight(self.vehicle, self.cfg.end, error, self.log) if self.vehicle is not None else ""
 
     def _finish(self, base: dict[str, float], best: np.ndarray, result: Any, confirms: list[float],
                 wall: float) -> CampaignSummary:

@@ -101,3 +101,12 @@ class FlightLog:
     warnings: list[str] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
     truncated_at: float | None = None  # vehicle time of the last complete sample before a cut, if the file is cut
+
+
+@dataclass
+class Segment:
+    index: int  # 1-based
+    t_start: float
+    t_end: float
+    mode: str
+    open_end: bool  # the log ends while still in this segment

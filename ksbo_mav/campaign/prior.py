@@ -1,0 +1,46 @@
+"""The kernel-selection prior of a campaign: simulator episodes around the baseline (computed once, kept in
+``prior.json``), or a local Latin hypercube flown on the vehicle (journalled as ``prior`` trials)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ksbo_mav.campaign.config import CampaignConfig
+from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.mav.snapshot import fsync_write
+
+
+def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any, x0: np.ndarray, bounds: np.ndarray,
+                   flown: list[float], fly: Callable[[np.ndarray], float],
+                   log: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(X (n, d), y (n,))`` or None for ``kind`` "none". ``flown``: P of the prior trials already journalled
+    (a resumed campaign flies only the rest, through ``fly``)."""
+    if kind == "none":
+        return None
+    from ksbo_mav.select.design import lhs_design
+
+    lo, hi = bounds[:, 0], bounds[:, 1]
+    u0 = (x0 - lo) / (hi - lo)
+    if kind == "sim":
+        if d.prior.exists():
+            doc = json.loads(d.prior.read_text())
+            return np.array(doc["X"]), np.array(doc["y"])
+        from ksbo_mav.objective import SimObjective
+
+        n = cfg.n_prior or 36
+        X = lo + lhs_design(n, len(x0), "local", center=u0, radius=0.25, seed=cfg.seed) * (hi - lo)
+        y = SimObjective(profile, seed=cfg.seed).batch(X)
+        fsync_write(d.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist()}))
+        log(f"prior: {n} simulator episodes around the baseline (in process, nothing flown)")
+        return X, y
+    n = cfg.n_prior or 8
+    X = lo + lhs_design(n, len(x0), "local", center=u0, radius=0.1, seed=cfg.seed) * (hi - lo)
+    y = list(flown)
+    for k in range(len(y), n):
+        log(f"prior trial {k + 1}/{n} (local LHS around the baseline)")
+        y.append(fly(X[k]))
+    return X, np.array(y)
