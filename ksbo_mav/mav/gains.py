@@ -18,12 +18,12 @@ def trust_region(profile: Profile, baseline: np.ndarray) -> tuple[np.ndarray, np
     """Where trial gains may go: the profile box, at most ``max_step_fraction`` of each gain's range from the
     baseline and, with ``max_ratio`` r, inside [baseline / r, baseline * r] for positive baselines."""
     b = profile.bounds
-    tr = profile.section("trust_region")
-    frac = float(tr.get("max_step_fraction", 1.0))
+    tr = profile.trust_region
+    frac = float(tr.max_step_fraction)
     w = b[:, 1] - b[:, 0]
     lo, hi = np.maximum(b[:, 0], baseline - frac * w), np.minimum(b[:, 1], baseline + frac * w)
-    if "max_ratio" in tr:
-        r = float(tr["max_ratio"])
+    if tr.max_ratio is not None:
+        r = float(tr.max_ratio)
         pos = baseline > 0
         lo = np.where(pos, np.maximum(lo, baseline / r), lo)
         hi = np.where(pos, np.minimum(hi, baseline * r), hi)

@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.errors import InputError
 from ksbo_mav.profiles import Profile
 from ksbo_mav.scoring import ScoreConfig
 
@@ -52,18 +51,11 @@ class Mission:
 
     @classmethod
     def from_profile(cls, profile: Profile) -> "Mission":
-        m = profile.section("mission")
-        kind = str(m.get("type", "figure8-xz"))
-        if kind not in KINDS:
-            raise InputError(f"profile {profile.name}: mission type {kind!r} unknown (known: {', '.join(KINDS)})")
-        scale = float(m.get("scale_m", 0.75))
-        mission = cls(kind, scale, float(m.get("scale_east_m", scale)), float(m.get("period_s", 6.0)),
-                      float(m.get("center_up_m", 1.0)), int(m.get("laps", 2)), int(m.get("rate_hz", 50)),
-                      tuple(sorted((k, tuple(v) if isinstance(v, list) else v)
-                                   for k, v in profile.section("score").items())))
-        if mission.dt_ms * mission.rate_hz != 1000:
-            raise InputError(f"profile {profile.name}: mission rate_hz {mission.rate_hz} must divide 1000")
-        return mission
+        """The profile's ``[mission]`` (validated when the profile loaded) with its ``[score]`` overrides."""
+        m = profile.mission_spec
+        east = m.scale_east_m if m.scale_east_m is not None else m.scale_m
+        return cls(m.type, float(m.scale_m), float(east), float(m.period_s), float(m.center_up_m), int(m.laps),
+                   int(m.rate_hz), tuple(sorted(profile.score_spec.given().items())))
 
     @property
     def tag(self) -> str:

@@ -40,7 +40,7 @@ class Vehicle:
         self.mission = Mission.from_profile(profile)
         self.is_sim = "SIM_LOCKSTEP" in params.table
         self.lockstep = self.is_sim and params.table["SIM_LOCKSTEP"].value == 1
-        self.heartbeat_timeout = float(profile.section("safety").get("heartbeat_timeout_s", 3.0))
+        self.heartbeat_timeout = float(profile.safety.heartbeat_timeout_s)  # the one source of this timeout
         self.tuning = Gains(params, profile, gains)
         self.telemetry = Telemetry(link, cmd, self.mission.rate_hz)
         self.guided = Guided(link, cmd, stack, self.telemetry, self.heartbeat_timeout, self.lockstep)
