@@ -51,3 +51,19 @@ def param_diff(campaign: Path, now: dict[str, float]) -> dict[str, tuple[float, 
 
 def trials(campaign: Path) -> list[dict]:
     return [json.loads(p.read_text()) for p in sorted((campaign / "trials").glob("trial_*.json"))]
+
+
+def accept_then_restore(sitl, d: Path, summary: dict, profile: str, port_args: list[str]) -> None:
+    """`ksbo-mav accept` leaves the best gains on the vehicle; `ksbo-mav restore` brings back the snapshot (every
+    parameter, autopilot-updated ones aside)."""
+    import pytest
+
+    r = tool("accept", str(d), *port_args)
+    assert r.returncode == 0, r.stderr
+    now, _ = read_all(sitl, profile)
+    for name, value in summary["best"]["values"].items():
+        assert now[name] == pytest.approx(value, rel=1e-6)
+    r = tool("restore", str(d), *port_args)
+    assert r.returncode == 0, r.stderr
+    now, _ = read_all(sitl, profile)
+    assert set(param_diff(d, now)) <= set(AUTOPILOT_UPDATED[sitl.kind])

@@ -183,3 +183,21 @@ def test_restore_gets_through_20_percent_packet_loss(rig):
     v.restore(base)
     got = {n: v.params.read(n, retries=8) for n in GAINS}
     assert got == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+
+
+def test_lost_packets_are_counted_as_loss_not_as_a_slow_client(rig):
+    """Issue 12: samples lost on the link show up as sequence gaps (``link.lost_packets``) and are interpolated;
+    the client was never late (lockstep answers each sample at its own time), so the trial still counts."""
+    sim, v, base, tmp = rig
+    v.params.set_verified("SIM_FAULT_AFTER", 3.0)  # after takeoff and the settle
+    v.params.set_verified("SIM_PKT_LOSS_OUT", 0.03)
+    obj = MavlinkObjective(v, base, tmp / "trials")
+    f = obj.fly(v.profile.default)
+    assert f.outcome == "ok" and f.meta["restored"]
+    assert f.meta["link"]["lost_packets"] > 0
+    assert f.meta["trajectory"]["missing"]["pos"] > 0 and f.meta["trajectory"]["unfilled"]["pos"] == 0
+    assert f.meta["link"]["late_fraction"] == 0.0
+    clean = MavlinkObjective(v, base, tmp / "clean", first_index=1)
+    v.params.set_verified("SIM_PKT_LOSS_OUT", 0.0, retries=8)
+    g = clean.fly(v.profile.default)
+    assert g.outcome == "ok" and g.meta["link"]["lost_packets"] == 0

@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from sitl_helpers import AUTOPILOT_UPDATED, param_diff, read_all, tool, trials
+from sitl_helpers import AUTOPILOT_UPDATED, accept_then_restore, param_diff, read_all, tool, trials
 
 from ksbo_mav.mav.trajectory import trajectory_from_tlog
 from ksbo_mav.mav.tlog import read_tlog
@@ -65,16 +65,7 @@ def test_score_of_each_trial_tlog_equals_the_live_score(campaign):
 
 def test_accept_then_restore(ardupilot_sitl, campaign):
     d, summary, _ = campaign
-    port = ["--tcp", f"127.0.0.1:{ardupilot_sitl.tcp_port}"]
-    r = tool("accept", str(d), *port)
-    assert r.returncode == 0, r.stderr
-    now, _ = read_all(ardupilot_sitl, PROFILE)
-    for name, value in summary["best"]["values"].items():
-        assert now[name] == pytest.approx(value, rel=1e-6)
-    r = tool("restore", str(d), *port)
-    assert r.returncode == 0, r.stderr
-    now, _ = read_all(ardupilot_sitl, PROFILE)
-    assert set(param_diff(d, now)) <= set(AUTOPILOT_UPDATED["ardupilot"])
+    accept_then_restore(ardupilot_sitl, d, summary, PROFILE, ["--tcp", f"127.0.0.1:{ardupilot_sitl.tcp_port}"])
 
 
 def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
@@ -86,7 +77,8 @@ def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
     journal = d / "journal.jsonl"
     # Kill it while trial 2 is being flown (two trials journalled, the third tlog growing).
     while time.monotonic() < deadline:
-        if journal.exists() and len(journal.read_text().splitlines()) >= 2 and (d / "trials" / "trial_002.tlog").exists():
+        flying_third = (d / "trials" / "trial_002.tlog").exists()
+        if journal.exists() and len(journal.read_text().splitlines()) >= 2 and flying_third:
             time.sleep(1.5)
             break
         time.sleep(0.1)
@@ -119,7 +111,8 @@ def test_arming_refused_is_one_clear_line_and_nothing_recorded(tmp_path):
         r = tune(sitl, d, "--budget", "3")
         assert r.returncode == 2, r.stderr[-2000:]
         last = r.stderr.strip().splitlines()[-1]
-        assert last.startswith("error: ") and "did not arm" in last and "below minimum arming voltage" in last, r.stderr[-2000:]
+        assert last.startswith("error: ") and "did not arm" in last, r.stderr[-2000:]
+        assert "below minimum arming voltage" in last  # the vehicle's own reason, on the one line
         assert "retrying" in r.stderr
         assert not (d / "journal.jsonl").exists() or not (d / "journal.jsonl").read_text().strip()
         assert not list(d.glob("trials/trial_*.json"))

@@ -10,7 +10,7 @@ import json
 
 import pytest
 
-from sitl_helpers import AUTOPILOT_UPDATED, param_diff, read_all, tool, trials
+from sitl_helpers import AUTOPILOT_UPDATED, accept_then_restore, param_diff, read_all, tool, trials
 
 pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
 PROFILE = "px4-copter"
@@ -46,14 +46,4 @@ def test_px4_score_equals_live_and_accept_restore(px4_sitl, campaign):
         r = tool("score", rec["tlog"], "--json")
         assert r.returncode == 0, r.stderr
         assert json.loads(r.stdout)["score"]["P"] == rec["score"]["P"]
-    port = ["--udp", f"127.0.0.1:{px4_sitl.udp_port}"]
-    r = tool("accept", str(d), *port)
-    assert r.returncode == 0, r.stderr
-    now, _ = read_all(px4_sitl, PROFILE)
-    for name, value in summary["best"]["values"].items():
-        assert now[name] == pytest.approx(value, rel=1e-6)
-    r = tool("restore", str(d), *port)
-    assert r.returncode == 0, r.stderr
-    now, _ = read_all(px4_sitl, PROFILE)
-    assert set(param_diff(d, now)) <= set(AUTOPILOT_UPDATED["px4"])
-
+    accept_then_restore(px4_sitl, d, summary, PROFILE, ["--udp", f"127.0.0.1:{px4_sitl.udp_port}"])

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ksbo_mav.errors import InputError
+from ksbo_mav.flightlog.detect import open_log
 
 HEAD1, HEAD2, FMT_TYPE, FMT_LEN = 0xA3, 0x95, 0x80, 89
 # DataFlash format characters -> numpy dtype (little-endian) and the multiplier ArduPilot applies on read.
@@ -79,15 +80,8 @@ CHUNK = 8 << 20  # bytes read at a time: memory is bounded by this plus the kept
 def read_dataflash(path: str | Path, wanted: set[str]) -> DFContents:
     """One streaming pass; raises :class:`InputError` on corruption (never on a cut end: see ``truncated``)."""
     p = Path(path)
-    try:
-        fh = open(p, "rb")
-    except OSError as exc:
-        raise InputError(f"cannot read log {p}: {exc.strerror or exc}") from None
+    fh, size = open_log(p)
     with fh:
-        size = fh.seek(0, 2)
-        fh.seek(0)
-        if size == 0:
-            raise InputError(f"log {p} is empty")
         return _walk(fh, size, wanted, p)
 
 

@@ -14,6 +14,21 @@ _USEC_MIN, _USEC_MAX = 946_684_800 * 10**6, 4_102_444_800 * 10**6  # 2000..2100,
 FORMATS = {"tlog": "MAVLink telemetry log (.tlog)", "bin": "ArduPilot DataFlash log (.BIN)", "ulg": "PX4 ULog (.ulg)"}
 
 
+def open_log(p: Path):
+    """A log opened for binary reading, positioned at 0, with its size; InputError (one line) when missing or
+    empty. Returns ``(file, size)``; the caller closes the file."""
+    try:
+        fh = open(p, "rb")
+    except OSError as exc:
+        raise InputError(f"cannot read log {p}: {exc.strerror or exc}") from None
+    size = fh.seek(0, 2)
+    fh.seek(0)
+    if size == 0:
+        fh.close()
+        raise InputError(f"log {p} is empty")
+    return fh, size
+
+
 def detect_format(path: str | Path) -> str:
     """``"tlog"``, ``"bin"`` or ``"ulg"``; :class:`InputError` (one line) for a missing, empty or foreign file."""
     p = Path(path)

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ksbo_mav.errors import InputError
+from ksbo_mav.flightlog.detect import open_log
 from ksbo_mav.flightlog.model import FlightLog, Marker, ModeChange, Track
 from ksbo_mav.flightlog.modes import COPTER_MODES, COPTER_TRACKING, PX4_AUTO_SUB, PX4_MAIN
 
@@ -25,14 +26,8 @@ def read_any_tlog(p: Path, partial: bool = False) -> FlightLog:
 
     parser = mavlink.MAVLink(None)
     parser.robust_parsing = False
-    try:
-        fh = open(p, "rb")
-    except OSError as exc:
-        raise InputError(f"cannot read log {p}: {exc.strerror or exc}") from None
+    fh, size = open_log(p)
     with fh:
-        size = fh.seek(0, 2)
-        if size == 0:
-            raise InputError(f"log {p} is empty")
         mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
         try:
             recs = _tlog_walk(mm, size, parser, p)
