@@ -115,7 +115,8 @@ class ScoreSpec:
             raise InputError("Q needs 6 diagonal weights and R needs 2")
         _positive(self, "j_hi", "rms_ref_m")
         if self.unsafe_rms_ratio is not None and not self.unsafe_rms_ratio > 1.0:
-            raise InputError(f"unsafe_rms_ratio must be > 1 (the baseline must score safe), got {self.unsafe_rms_ratio}")
+            raise InputError(f"unsafe_rms_ratio must be > 1 (the baseline must score safe), "
+                             f"got {self.unsafe_rms_ratio}")
 
     def given(self) -> dict[str, Any]:
         """The keys the profile sets (lists as tuples)."""

@@ -30,7 +30,9 @@ def machine() -> str:
 
 def write_section(title: str, body: str) -> None:
     """Replace (or append) the section '## {title}' of BENCHMARKS.md, leaving other sections untouched."""
-    text = BENCHMARKS.read_text() if BENCHMARKS.exists() else "# Benchmarks\n\nMeasured numbers only; each section names its machine and date and the script that regenerates it.\n"
+    text = BENCHMARKS.read_text() if BENCHMARKS.exists() else (
+        "# Benchmarks\n\nMeasured numbers only; each section names its machine and date and the script that "
+        "regenerates it.\n")
     header = f"## {title}"
     pattern = re.compile(rf"^{re.escape(header)}\n.*?(?=^## |\Z)", re.S | re.M)
     block = f"{header}\n\n{body.strip()}\n\n"

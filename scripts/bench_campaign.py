@@ -163,7 +163,8 @@ def run_campaign(args) -> None:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     seeds = range(args.seed_offset, args.seed_offset + args.seeds)
-    tasks = [(s, m, k) for s in args.settings for k in seeds for m in args.methods if not path_of(args.out, s, m, k).exists()]
+    tasks = [(s, m, k) for s in args.settings for k in seeds for m in args.methods
+             if not path_of(args.out, s, m, k).exists()]
     log = open(args.out / "campaign.log", "a")
     print(f"{len(tasks)} runs to do ({args.workers} workers)", file=log, flush=True)
     args_d = {"local_n": args.local_n, "local_radius": args.local_radius}

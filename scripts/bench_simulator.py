@@ -74,7 +74,8 @@ def main() -> None:
                                 np.array([0.2367, 0.007699, 0.8752, 3, 0.000393, 2.662, 1.167e4, 88.22, 9777])]))
     table = "\n".join(f"| {a} | {b} | {c} |" for a, b, c in rows)
     load = os.getloadavg()[0]
-    body = f"""Machine: {machine()}; 1-min load average at the end {load:.1f} (other work shared the 2 cores). Script: `python scripts/bench_simulator.py` (BLAS pinned to 1 thread).
+    body = f"""Machine: {machine()}; 1-min load average at the end {load:.1f} (other work shared the 2 cores).
+Script: `python scripts/bench_simulator.py` (BLAS pinned to 1 thread).
 Goals: single episode <= 10 ms; batched <= 0.1 ms/episode over >= 1000 gain vectors.
 
 | case | time | note |

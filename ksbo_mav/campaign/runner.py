@@ -192,7 +192,8 @@ class Campaign:
                               **optimizer_options(self._prior_kind(), self.cfg.options))
         except UnsafeStartError:
             raise VehicleError(f"the baseline gains flew unsafe (P = {done[0].P:.3f} < 0): safe BO needs a safe "
-                               "start; fix the gains or the mission/safety settings first (baseline restored)") from None
+                               "start; fix the gains or the mission/safety settings first (baseline restored)"
+                               ) from None
         self.unused = replay.unused
         return result
 

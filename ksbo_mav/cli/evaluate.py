@@ -37,7 +37,8 @@ def run(args: argparse.Namespace) -> int:
     gains = profile.check_gains(parse_gains(args.gains, profile), within_box=False)
     obj = SimObjective(profile, seed=args.seed)
     rng = np.random.default_rng(args.seed)
-    init = fixed_initial_states(config=obj.episode) if args.fixed else random_initial_states(args.episodes, rng, obj.episode)
+    init = (fixed_initial_states(config=obj.episode) if args.fixed
+            else random_initial_states(args.episodes, rng, obj.episode))
     flights = [obj.fly(gains, init=row) for row in init]
     scores = [f.score for f in flights]
     P = np.array([s["P"] for s in scores])

@@ -1,7 +1,8 @@
 """Attitude and rate loops plus motor mixer, modelled on ArduCopter's AC_AttitudeControl_Multi / AP_MotorsMatrix.
 
 Fixed inner loops (the tuner never touches them): target lean angles are shaped with a first-order time
-constant ``input_tc`` through ArduPilot's sqrt controller and an angular-acceleration limit (ArduCopter ATC_INPUT_TC, ATC_ACCEL_*_MAX, rate
+constant ``input_tc`` through ArduPilot's sqrt controller and an angular-acceleration limit (ArduCopter
+ATC_INPUT_TC, ATC_ACCEL_*_MAX, rate
 feed-forward on), the angle P loop adds a body-rate correction, and a rate PID (ArduPilot AC_PID: target
 filter FLTT, derivative filter FLTD, integrator limit IMAX) gives normalised roll/pitch/yaw outputs. The
 mixer turns collective + outputs into per-motor thrust with roll/pitch priority, as AP_MotorsMatrix does;

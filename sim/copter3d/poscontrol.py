@@ -5,7 +5,8 @@ filter FLTD, IMAX, velocity FF) -> acceleration target (+ acceleration feed-forw
 ``pitch = atan(-a_fwd / g)``, ``roll = atan(a_right cos(pitch) / g)`` limited to ``angle_max``.
 D: position P -> velocity P (+ FF) -> acceleration target (+ FF) -> acceleration PID on the measured vertical
 acceleration -> throttle around the hover throttle (the vehicle divides it by cos(tilt): angle boost).
-PX4 style (``z_px4=True``): the vertical velocity loop is a PID (D on the velocity error) giving the acceleration target and thrust is
+PX4 style (``z_px4=True``): the vertical velocity loop is a PID (D on the velocity error) giving the acceleration
+target and thrust is
 ``hover * (1 - a_D / g)`` with no acceleration feedback (mc_pos_control's two stages).
 There is no NE position I term, as in ArduCopter. Gains are the canonical internal vector
 :class:`PosGains` (ArduPilot 4.7+ SI names); ``params.py`` maps autopilot parameters onto it.
@@ -82,7 +83,8 @@ class PositionController:
 
     def update(self, pos: list[float], vel: list[float], yaw: float, pos_t: list[float], vel_t: list[float],
                acc_t: list[float]) -> tuple[float, float, float]:
-        """One step. Targets are already dead-reckoned to now. Returns (roll rad, pitch rad, throttle before angle boost, fraction of full thrust)."""
+        """One step. Targets are already dead-reckoned to now. Returns (roll rad, pitch rad, throttle before angle
+        boost, fraction of full thrust)."""
         g, dt = self.g, self.dt
         # --- NE: position P -> velocity target, limited in magnitude like AC_PosControl's limit_vector_length.
         vx = g.ne_pos_p * (pos_t[0] - pos[0])
