@@ -17,6 +17,7 @@ from mav_tune_helpers import baseline, fresh_read, sim_and_endpoint
 
 from ksbo_mav.cli import main
 from ksbo_mav.campaign import Campaign, CampaignConfig
+from ksbo_mav.errors import VehicleError
 
 pytestmark = [pytest.mark.network]
 
@@ -141,12 +142,36 @@ def test_local_prior_is_flown_around_the_baseline_and_journalled(tmp_path):
         cfg = CampaignConfig(dir=str(tmp_path / "c"), budget=3, seed=2, prior="local", n_prior=4, end="hold")
         summary = Campaign(cfg, ep, log=lambda s: None).run()
         entries = _journal(tmp_path / "c")
-        assert [e["kind"] for e in entries] == ["prior"] * 4 + ["opt"] * 3 + ["confirm"]
+        # The baseline first (the reference and the optimiser's first point), then the prior, then the optimiser.
+        assert [e["kind"] for e in entries] == ["opt"] + ["prior"] * 4 + ["opt"] * 2 + ["confirm"]
         assert summary["n_trials"] == 8
         x0 = summary["baseline"]["x"]
         from ksbo_mav.profiles import load_profile
 
         width = load_profile("sim-planar").bounds @ [-1.0, 1.0]
-        for e in entries[:4]:  # local LHS: within 10 % of the optimiser box around the baseline
+        for e in entries[1:5]:  # local LHS: within 10 % of the optimiser box around the baseline
             assert all(abs(a - b) <= 0.1 * w + 1e-9 for a, b, w in zip(e["x"], x0, width))
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+
+
+@pytest.mark.timeout(180)
+def test_pilot_mode_change_is_journalled_as_failed_not_as_a_gain_point(tmp_path):
+    """Issue 12: a trial the pilot interrupts says nothing about its gains: journalled as "failed", never given to
+    the optimiser; the campaign stops with the reason, baseline restored, and --resume starts cleanly."""
+    from ksbo_mav.mav.link import Endpoint
+    from ksbo_mav.mav.vehicle import Vehicle
+
+    d = tmp_path / "camp"
+    with sim_and_endpoint() as (sim, ep):
+        other = Vehicle.connect(Endpoint("udpout", "127.0.0.1", sim.port), "sim-planar", sysid=250, compid=190)
+        try:  # the pilot takes over 2 s into the baseline trial's figure-8
+            other.params.set_verified("SIM_FAULT_AFTER", 5.0)
+            other.params.set_verified("SIM_PILOT_MODE", 5)
+        finally:
+            other.close()
+        cfg = CampaignConfig(dir=str(d), budget=4, seed=0, prior="none", end="hold")
+        with pytest.raises(VehicleError, match="pilot changed the mode"):
+            Campaign(cfg, ep, log=lambda s: None).run()
+        entries = _journal(d)
+        assert [e["kind"] for e in entries] == ["failed"] and entries[0]["outcome"] == "pilot"
         assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
