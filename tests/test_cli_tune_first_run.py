@@ -91,3 +91,21 @@ def test_dry_run_prints_the_flight_plan_and_writes_nothing(tmp_path):
                   "11 optimiser + 1 confirmation)", "batteries:", "nothing was written"):
         assert words in r.stdout, r.stdout
     assert not d.exists()
+
+
+@pytest.mark.network
+def test_sysid_and_compid_reach_the_wire(tmp_path):
+    """Issue 12: --sysid/--compid are the ids the tool speaks with (they were parsed and dropped before)."""
+    from ksbo_mav.mav.tlog import read_tlog
+
+    port = free_udp_port()
+    sim = SimProcess("--lockstep", out_port=port)
+    try:
+        d = tmp_path / "ids"
+        r = run("tune", str(d), "--udp", f"127.0.0.1:{port}", "--budget", "1", "--confirm", "0", "--prior", "none",
+                "--sysid", "201", "--compid", "42", "--end", "hold")
+    finally:
+        sim.stop()
+    assert r.returncode == 0, r.stderr
+    sent = [rec.msg for rec in read_tlog(d / "trials" / "trial_000.tlog") if rec.sent]
+    assert sent and {(m.get_srcSystem(), m.get_srcComponent()) for m in sent} == {(201, 42)}
