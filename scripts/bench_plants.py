@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+SECTION = "Adaptive safe BO over a plant suite (issue 13)"
 ORACLE = np.array([0.2367, 0.007699, 0.8752, 3.0, 0.000393, 2.662, 1.167e4, 88.22, 9777.0])
 
 
@@ -166,6 +167,8 @@ def main(argv: list[str] | None = None) -> None:
     p = sub.add_parser("report")
     p.add_argument("file")
     p.add_argument("--tag", default=None, help="only runs with this tag")
+    p.add_argument("--write", metavar="NOTES.md", default=None,
+                   help="write the BENCHMARKS.md section (NOTES.md first, then the tables)")
     a = ap.parse_args(argv)
     if a.cmd == "run":
         cmd_run(a)
@@ -173,7 +176,15 @@ def main(argv: list[str] | None = None) -> None:
         recs = [json.loads(line) for line in Path(a.file).read_text().splitlines() if line.strip()]
         if a.tag is not None:
             recs = [x for x in recs if x.get("tag", "") == a.tag]
-        print(report(recs))
+        text = report(recs)
+        print(text)
+        if a.write:
+            sys.path.insert(0, str(Path(__file__).resolve().parent))
+            from _bench_common import machine, write_section
+
+            notes = Path(a.write).read_text().strip()
+            cmd = "`python scripts/bench_plants.py run …` then `report FILE --write NOTES`"
+            write_section(SECTION, f"{notes}\n\nMachine: {machine()}. Regenerate: {cmd}.\n\n{text}")
 
 
 if __name__ == "__main__":

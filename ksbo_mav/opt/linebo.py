@@ -34,7 +34,8 @@ def line_grid(x: np.ndarray, direction: np.ndarray, n: int) -> tuple[np.ndarray,
 
 
 def safe_interval(safe: np.ndarray, i0: int) -> tuple[int, int]:
-    """Inclusive index range of the run of True in ``safe`` (n,) containing ``i0``; (i0, i0) if ``safe[i0]`` is False."""
+    """Inclusive index range of the run of True in ``safe`` (n,) containing ``i0``; (i0, i0) if ``safe[i0]`` is
+    False."""
     if not safe[i0]:
         return i0, i0
     lo = i0

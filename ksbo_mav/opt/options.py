@@ -63,7 +63,8 @@ _CHOICES: dict[str, tuple[str, ...]] = {
 
 #: The adaptive settings of method ``ksbo-adaptive`` (tuned on the nominal planar plant, seeds 100+).
 ADAPTIVE: dict[str, Any] = {
-    "censor_aborts": True, "learn_safety_scale": True, "trust_region": True, "max_aborts": 10, "refly_last": 9, "refly_top": 3,
+    "censor_aborts": True, "learn_safety_scale": True, "trust_region": True, "max_aborts": 10, "refly_last": 9,
+    "refly_top": 3,
     "reselect_every": 25,
 }
 

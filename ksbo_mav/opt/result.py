@@ -71,5 +71,6 @@ class OptimizeResult:
     def __repr__(self) -> str:  # short: arrays of 200 points are not useful in a REPL
         return (
             f"OptimizeResult(method={self.method!r}, fun={self.fun:.4g}, nfev={self.nfev}, "
-            f"n_unsafe={self.n_unsafe}, n_aborted={self.n_aborted}, n_crashed={self.n_crashed}, orders={self.orders}, x={np.array2string(self.x, precision=4)})"
+            f"n_unsafe={self.n_unsafe}, n_aborted={self.n_aborted}, n_crashed={self.n_crashed}, "
+            f"orders={self.orders}, x={np.array2string(self.x, precision=4)})"
         )

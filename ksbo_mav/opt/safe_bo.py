@@ -302,7 +302,7 @@ class SafeBO:
 
     def propose(self) -> Proposal:
         """Next query point (certified safe unless ``kind`` is "fallback" or ends in "/backup")."""
-        c, a = self.config, self.adaptive
+        a = self.adaptive
         exploring = self.remaining is None or self.remaining > self.n_exploit()
         budget_left = a.max_aborts is None or self.aborts < a.max_aborts
         self.relaxed = a.backup_beta is not None and exploring and budget_left

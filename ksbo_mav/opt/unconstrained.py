@@ -52,7 +52,8 @@ def run_unconstrained(problem: Problem, method: str, opts: Options, seed: int | 
             return score, np.ones(len(Z), dtype=bool)
 
         top = X[np.argsort(-y)[: min(8, len(y))]]
-        C = np.vstack([sobol(opts.n_global * 4, d, rng), local_gaussian(top, opts.n_local // 2, opts.local_scales, rng)])
+        C = np.vstack([sobol(opts.n_global * 4, d, rng),
+                       local_gaussian(top, opts.n_local // 2, opts.local_scales, rng)])
         score, _ = evaluate(C)
         starts = C[np.argsort(-score)[:8]]
         Z, s = refine(evaluate, starts, rng, rounds=4, samples=32, scale=0.05)
