@@ -29,7 +29,7 @@ from _bench_common import machine, write_section  # noqa: E402
 from ksbo_mav.mav.link import Endpoint  # noqa: E402
 from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402
 from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
-from ksbo_mav.mav.stacks import AUTOPILOT_UPDATED  # noqa: E402
+from ksbo_mav.mav.stacks import autopilot_updated  # noqa: E402
 from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
 from ksbo_sim.sitl import start_sitl  # noqa: E402
 
@@ -67,9 +67,9 @@ def changed_params(sitl, d: Path) -> list[str]:
         now = {k: p.value for k, p in v.params.table.items()}
     finally:
         v.close()
-    allowed = set(AUTOPILOT_UPDATED[sitl.kind])
     return sorted(k for k, (val, _) in snap.params.items()
-                  if k not in allowed and (k not in now or abs(now[k] - val) > 1e-6 * max(1.0, abs(val))))
+                  if not autopilot_updated(sitl.kind, k)
+                  and (k not in now or abs(now[k] - val) > 1e-6 * max(1.0, abs(val))))
 
 
 def run_one(kind: str, seed: int, budget: int, instance: int, method: str = "ksbo") -> dict:

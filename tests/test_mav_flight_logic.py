@@ -118,3 +118,15 @@ def test_recorder_reads_reference_marker_and_counts_lost_packets():
         rec.feed(lpn(1020 + 20 * k, seq), False)
     rec.feed(sent_text(end_text("f8h", 10, "ok")), True)
     assert rec.rms_ref == pytest.approx(0.234567) and rec.lost == 2
+
+
+def test_a_trip_right_after_the_stream_stalled_is_blamed_on_the_client():
+    from ksbo_mav.mav.objective import STALL_MS, _lag_stats, _stall_before
+
+    lag = [0.0] * 300
+    lag[250] = 2 * STALL_MS  # the tuner fell 1 s behind at step 250
+    assert _stall_before(lag, 280) > STALL_MS  # a trip 30 steps later: the client's doing
+    assert _stall_before(lag, 299 + 200) == 0.0  # long after it: the gains'
+    assert _stall_before([], 10) == 0.0
+    stats = _lag_stats(lag, 200)
+    assert stats["lag_max_ms"] == 2 * STALL_MS and stats["late_fraction"] == pytest.approx(1 / 100)

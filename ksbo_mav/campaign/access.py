@@ -15,7 +15,7 @@ from ksbo_mav.errors import InputError
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.snapshot import Snapshot, load_snapshot, write_param_files
 from ksbo_mav.mav.snapshot import fsync_write
-from ksbo_mav.mav.stacks import AUTOPILOT_UPDATED
+from ksbo_mav.mav.stacks import autopilot_updated
 from ksbo_mav.mav.vehicle import Vehicle
 
 
@@ -47,9 +47,9 @@ def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], 
         check_identity(snap, v)
         base = snap.baseline()
         v.restore(base)
-        own = set(AUTOPILOT_UPDATED.get(v.stack.name, ()))
         others = [n for n, (val, _) in snap.params.items()
-                  if n in v.params.table and n not in base and n not in own and not n.startswith("SIM_")
+                  if n in v.params.table and n not in base and not autopilot_updated(v.stack.name, n)
+                  and not n.startswith("SIM_")
                   and not np.isclose(v.params.table[n].value, val, rtol=1e-6, atol=1e-7)]
         if others:
             log(f"note: {len(others)} other parameter(s) differ from the snapshot and were left alone: "

@@ -216,6 +216,12 @@ class MavlinkObjective:
                      "no packet was lost (sequence numbers complete): the vehicle sent less - another ground "
                      "station's stream request, or a saturated link")
             outcome, message = T.TELEMETRY, f"{why}; {cause}"
+        stall = _stall_before(self._lag, int(traj.L))
+        if outcome.gain_caused and stall > STALL_MS:
+            # The tuner stopped streaming just before the trip (PX4's OFFBOARD fails safe, ArduPilot dead-reckons
+            # the last setpoint): the computer caused it, not the gains.
+            outcome, message = T.CLIENT, (f"{message}, {stall:.0f} ms (vehicle time) after the tuner's setpoint "
+                                          "stream stalled: this computer could not keep up with the vehicle")
         if outcome is T.OK and link_stats.get("late_fraction", 0.0) > MAX_LATE_FRACTION:
             # The vehicle flew stale setpoints: the tracking error measures this computer, not the gains.
             outcome, message = T.CLIENT, (
@@ -239,6 +245,16 @@ class MavlinkObjective:
 #: A setpoint sent more than LATE_MS of vehicle time after its step is late; more than MAX_LATE_FRACTION of the
 #: scored lap late and the trial measures the client, not the gains (outcome "client", retried by the campaign).
 LATE_MS, MAX_LATE_FRACTION = 100.0, 0.02
+
+
+#: A monitor trip within 2 s of the setpoint stream stalling by more than STALL_MS is the client's doing.
+STALL_MS = 500.0
+
+
+def _stall_before(lag: list[float], L: int, window: int = 100) -> float:
+    """Largest setpoint lateness (ms) in the ``window`` steps before step ``L`` (0 when nothing was streamed)."""
+    recent = lag[max(0, L - window):L + 1] if lag else []
+    return float(max(recent)) if len(recent) else 0.0
 
 
 def _lag_stats(lag: list[float], w: int) -> dict[str, float]:

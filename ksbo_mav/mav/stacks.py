@@ -9,6 +9,7 @@ and generation maps to the *same* gain vector. Anything unknown is refused rathe
 
 from __future__ import annotations
 
+import fnmatch
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -64,8 +65,15 @@ PX4 = Stack("px4", MAV_AUTOPILOT_PX4, "bytewise", {"guided": 393216, "hold": 505
 AUTOPILOT_UPDATED = {
     "ardupilot": ("STAT_BOOTCNT", "STAT_FLTTIME", "STAT_RUNTIME", "STAT_RESET", "MOT_THST_HOVER", "BARO1_GND_PRESS",
                   "BARO2_GND_PRESS", "BARO3_GND_PRESS", "COMPASS_DEC", "MIS_TOTAL"),
-    "px4": ("LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO", "COM_FLIGHT_UUID"),
+    # PX4 also saves the accelerometer biases it learns in flight (and re-ranks that sensor's priority).
+    "px4": ("LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO", "COM_FLIGHT_UUID", "CAL_ACC*", "CAL_GYRO*"),
 }
+
+
+def autopilot_updated(stack: str, name: str) -> bool:
+    """Whether ``name`` is a parameter the ``stack`` autopilot writes itself (:data:`AUTOPILOT_UPDATED`; ``*``
+    matches any suffix)."""
+    return any(fnmatch.fnmatchcase(name, pat) for pat in AUTOPILOT_UPDATED.get(stack, ()))
 
 
 @dataclass(frozen=True)
