@@ -57,7 +57,6 @@ class Guided:
                  lockstep: bool = False) -> None:
         self.link, self.cmd, self.stack, self.tel = link, cmd, stack, tel
         self.heartbeat_timeout, self.lockstep = heartbeat_timeout, lockstep
-        self.parked = False  # PX4: we put it in hold mode between streams
         self._hold: np.ndarray | None = None
         self._last_keep = 0.0
         if lockstep:
@@ -214,14 +213,12 @@ class Guided:
             if not self.in_mode("guided"):
                 self.wait(PRESTREAM_S)
         self.cmd.set_mode(mode)
-        self.parked = False
 
     def park(self) -> None:
         """After a stream: PX4 goes to hold mode (its OFFBOARD would fail-safe without setpoints); elsewhere the
         last position-only target holds by itself."""
         if self.stack.needs_stream and self.armed and self.in_mode("guided"):
             self.cmd.set_mode("hold")
-            self.parked = True
         self.hold_at(None)
 
     def arm(self, timeout_s: float = 90.0, log: Callable[[str], None] = lambda s: None) -> None:
@@ -302,7 +299,6 @@ class Guided:
             return
         self.hold_at(None)
         self.cmd.set_mode("land")
-        self.parked = False
         if not self.wait(timeout_s, lambda: not self.armed):
             raise VehicleError(f"the vehicle did not land and disarm within {timeout_s:g} s of vehicle time "
                                f"(height {self.height():.2f} m)")
