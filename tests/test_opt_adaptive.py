@@ -146,7 +146,7 @@ def test_recommendation_refies_top_candidates_and_rejects_a_bistable_one() -> No
     """B flew 1.0 once but aborts when re-flown; A flies 0.8 reliably: re-flying picks A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.runner import refly_candidates, refly_choice
+    from ksbo_mav.opt.recommend import refly_candidates, refly_choice
     from ksbo_mav.opt.safe_bo import SafeBO
 
     A, B, C = np.array([0.3, 0.3]), np.array([0.5, 0.6]), np.array([0.8, 0.2])

@@ -29,7 +29,8 @@ import numpy as np
 
 from ksbo_mav.opt.acquisition import (Acquisition, BoundaryExpansion, PosteriorMean, SafeOptRule, SafeUCB,
                                       WidestFeasible)
-from ksbo_mav.opt.candidates import local_gaussian, refine, sobol
+from ksbo_mav.opt import recommend, region
+from ksbo_mav.opt.candidates import refine
 from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
 from ksbo_mav.opt.failure_model import FailureModel, learn_lengthscales
 from ksbo_mav.opt.model import SafetyModel
@@ -37,10 +38,8 @@ from ksbo_mav.opt.trust_region import TrustRegion
 from ksbo_mav.opt.outcome import Outcome
 
 RULES = ("ucb", "safeopt")
-#: Prior points this close (unit cube) to one of the optimiser's evaluations join its search region ("x0" mode).
-CONNECT_RADIUS = 0.1
-#: The final exploitation phase takes at most 1/EXPLOIT_SHARE of the budget.
-EXPLOIT_SHARE = 5
+CONNECT_RADIUS = region.CONNECT_RADIUS
+EXPLOIT_SHARE = recommend.EXPLOIT_SHARE
 
 
 @dataclass
@@ -234,49 +233,16 @@ class SafeBO:
 
     # -- candidates ---------------------------------------------------------------------------------------------
     def _anchors(self, lcb_d: np.ndarray, ucb_d: np.ndarray) -> np.ndarray:
-        ok = (lcb_d >= self.p_min) & (self.y >= self.p_min) & self.complete
-        ok &= self._connected()
-        idx = np.flatnonzero(ok)
-        if idx.size == 0:
-            return self.X[[int(np.argmax(np.where(self.complete, lcb_d, -np.inf)))]]
-        n = self.config.n_anchors
-        best = idx[np.argsort(-ucb_d[idx])][: max(n // 2, 1)]
-        rest = np.setdiff1d(idx, best)
-        if rest.size:
-            best = np.concatenate([best, self.rng.choice(rest, size=min(n - best.size, rest.size), replace=False)])
-        A = self.X[best]
-        return A if self.tr is None else np.vstack([self.tr.center, A])
+        """(k, d) centres of the candidate clouds (opt.region.anchors)."""
+        return region.anchors(self, lcb_d, ucb_d)
 
     def _connected(self) -> np.ndarray:
-        """(n,) bool: observations that may anchor candidate clouds.
-
-        All of them under ``explore_from="all"``; under ``"x0"`` the optimiser's own evaluations (the start
-        first) and the prior points linked to them by a chain of steps of at most ``CONNECT_RADIUS``, so the
-        search region grows from the start and takes in prior points once it reaches them. (A resumed campaign
-        passes its earlier trials as prior: their chain from the start keeps them connected.)
-        """
-        n = self.y.size
-        if self.config.explore_from == "all" or self.n_prior == 0:
-            return np.ones(n, dtype=bool)
-        linked = np.arange(n) >= self.n_prior
-        P = self.X[: self.n_prior]
-        while True:
-            d2 = ((P[:, None, :] - self.X[linked][None, :, :]) ** 2).sum(-1).min(axis=1)
-            new = (d2 <= CONNECT_RADIUS**2) & ~linked[: self.n_prior]
-            if not new.any():
-                return linked
-            linked[: self.n_prior] |= new
+        """(n,) bool: observations that may anchor candidate clouds (opt.region.connected)."""
+        return region.connected(self)
 
     def candidates(self, anchors: np.ndarray) -> np.ndarray:
-        """(m, d) candidate set: local clouds around ``anchors`` (k, d) plus global Sobol (moved dims only)."""
-        c = self.config
-        local = local_gaussian(anchors, c.n_local, c.local_scales, self.rng, free=self.free)
-        glob = sobol(c.n_global if c.explore_from == "all" else 0, self.model.dim, self.rng)
-        C = np.vstack([local, glob])
-        # Dimensions outside the search space stay at the start value (they are not in the kernel, so the model
-        # could not tell a change there from no change).
-        C[:, ~self.free] = self.x0[~self.free]
-        return C
+        """(m, d) candidate set around ``anchors`` (k, d) (opt.region.candidates)."""
+        return region.candidates(self, anchors)
 
     # -- the step -----------------------------------------------------------------------------------------------
     def n_exploit(self) -> int:
@@ -342,34 +308,11 @@ class SafeBO:
                 kind += "/backup"
         return Proposal(x.copy(), kind, float(m[0]), float(s[0]), float(lo[0]))
 
-    # -- recommendation -----------------------------------------------------------------------------------------
+    # -- recommendation (opt.recommend) ---------------------------------------------------------------------------
     def smoothed(self) -> tuple[np.ndarray, np.ndarray]:
-        """Recommendation criterion at the data: (n,) posterior mean and (n,) LCB (of the smoothing GP)."""
-        mu, _, lcb, _ = self.bounds(self.X)
-        if self.config.recommend_noise is not None:
-            smooth = SafetyModel(self.model.spec.with_(signal_std=self.model.signal_std,
-                                                       noise_std=self.config.recommend_noise * self.model.signal_std),
-                                 self.model.dim, self.p_min, self.model.seed)
-            smooth.fit(self.X[self.gp_mask], self.y[self.gp_mask])
-            mu_s, sd_s = smooth.predict(self.X)
-            mu, lcb = mu_s, mu_s - self.config.beta * sd_s
-        return mu, lcb
+        """(n,) recommendation criterion at the data: smoothed posterior mean and LCB (opt.recommend.smoothed)."""
+        return recommend.smoothed(self)
 
     def recommend(self) -> tuple[int, float, float]:
-        """Index into the data of the recommended point, with its posterior mean and LCB.
-
-        Among completed observations that were safe *and* are certified safe by the model, the best posterior
-        mean (or LCB): the model's smoothed judgement, not the luckiest noisy observation (part D: bistable gains).
-        """
-        _, _, lcb_strict, _ = self.bounds(self.X)
-        ok = (self.y >= self.p_min) & (lcb_strict >= self.p_min) & self.complete
-        if self.failures is not None and not self.complete.all():
-            ok &= self.failures.predict(self.X)[0] <= self.adaptive.abort_tol  # not next to aborted trials
-        mu, lcb = self.smoothed()
-        if not ok.any():
-            ok = (self.y >= self.p_min) & self.complete
-        if not ok.any():
-            ok = np.ones_like(ok)
-        crit = lcb if self.config.recommend == "lcb" else mu
-        i = int(np.argmax(np.where(ok, crit, -np.inf)))
-        return i, float(mu[i]), float(lcb[i])
+        """Data index of the recommended point with its mean and LCB (opt.recommend.model_choice)."""
+        return recommend.model_choice(self)

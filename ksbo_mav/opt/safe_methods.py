@@ -28,7 +28,8 @@ from ksbo_mav.opt.options import Options
 from ksbo_mav.opt.outcome import Outcome
 from ksbo_mav.opt.problem import Problem, build_result
 from ksbo_mav.opt.result import OptimizeResult
-from ksbo_mav.opt.runner import recommend, run_safe_bo
+from ksbo_mav.opt.recommend import final_choice
+from ksbo_mav.opt.runner import run_safe_bo
 from ksbo_mav.opt.safe_bo import SafeBO
 from ksbo_mav.opt.selection import KernelSelection, reselect_by_evidence, select_kernel
 
@@ -156,7 +157,7 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
         info["stopped"] = f"max_aborts={opts.max_aborts} reached"
     if bo.refly_set is not None:
         info["reflown"] = [problem.to_physical(bo.X[i]).tolist() for i in bo.refly_set]
-    i, mu, lcb = recommend(bo)
+    i, mu, lcb = final_choice(bo)
     info["gp_train_y"] = (np.asarray(bo.model.gp.y_train_) + problem.p_min).tolist()  # completed trials only
     info["signal_std"] = bo.model.signal_std
     info["noise_std"] = bo.model.noise_std

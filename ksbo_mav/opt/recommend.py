@@ -1,0 +1,95 @@
+"""The recommendation: the model's smoothed judgement, and the re-fly phase that checks its top candidates.
+
+* :func:`model_choice` — among completed observations that were safe *and* are certified by the model, the best
+  smoothed posterior mean (or LCB): not the luckiest noisy observation (part D of the fact sheet: bistable gains).
+* Re-fly phase (``refly_last`` > 0, opt.runner): :func:`refly_candidates` are the ``refly_top`` best distinct
+  points by that criterion; :func:`final_choice` is then the candidate with the best mean over all its flights.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ksbo_mav.opt.model import SafetyModel
+
+if TYPE_CHECKING:
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+#: The exploitation and the re-fly phases each take at most 1/EXPLOIT_SHARE of the budget.
+EXPLOIT_SHARE = 5
+
+
+def smoothed(bo: "SafeBO") -> tuple[np.ndarray, np.ndarray]:
+    """Recommendation criterion at the data: (n,) posterior mean and (n,) LCB (of the smoothing GP)."""
+    mu, _, lcb, _ = bo.bounds(bo.X)
+    if bo.config.recommend_noise is not None:
+        spec = bo.model.spec.with_(signal_std=bo.model.signal_std,
+                                   noise_std=bo.config.recommend_noise * bo.model.signal_std)
+        smooth = SafetyModel(spec, bo.model.dim, bo.p_min, bo.model.seed)
+        smooth.fit(bo.X[bo.gp_mask], bo.y[bo.gp_mask])
+        mu_s, sd_s = smooth.predict(bo.X)
+        mu, lcb = mu_s, mu_s - bo.config.beta * sd_s
+    return mu, lcb
+
+
+def model_choice(bo: "SafeBO") -> tuple[int, float, float]:
+    """Index into the data of the recommended point, with its posterior mean and LCB.
+
+    Among completed observations that were safe *and* are certified safe by the model, the best posterior
+    mean (or LCB): the model's smoothed judgement, not the luckiest noisy observation (part D: bistable gains).
+    """
+    _, _, lcb_strict, _ = bo.bounds(bo.X)
+    ok = (bo.y >= bo.p_min) & (lcb_strict >= bo.p_min) & bo.complete
+    if bo.failures is not None and not bo.complete.all():
+        ok &= bo.failures.predict(bo.X)[0] <= bo.adaptive.abort_tol  # not next to aborted trials
+    mu, lcb = smoothed(bo)
+    if not ok.any():
+        ok = (bo.y >= bo.p_min) & bo.complete
+    if not ok.any():
+        ok = np.ones_like(ok)
+    crit = lcb if bo.config.recommend == "lcb" else mu
+    i = int(np.argmax(np.where(ok, crit, -np.inf)))
+    return i, float(mu[i]), float(lcb[i])
+
+
+def refly_count(bo: "SafeBO") -> int:
+    """Evaluations of the re-fly phase (at most a fifth of the budget)."""
+    n = bo.adaptive.refly_last
+    return min(n, bo.budget // EXPLOIT_SHARE) if bo.budget > 0 else n
+
+
+def refly_candidates(bo: "SafeBO") -> np.ndarray:
+    """(k,) data indices of the ``refly_top`` best distinct completed safe points by the recommendation's
+    criterion (the smoothed posterior mean or LCB)."""
+    mu, lcb = bo.smoothed()
+    crit = lcb if bo.config.recommend == "lcb" else mu
+    ok = bo.complete & (bo.y >= bo.p_min)
+    if not ok.any():
+        ok = bo.complete
+    order = [int(i) for i in np.argsort(-np.where(ok, crit, -np.inf)) if ok[i]]
+    chosen: list[int] = []
+    for i in order:
+        if not any(np.array_equal(bo.X[i], bo.X[j]) for j in chosen):
+            chosen.append(i)
+        if len(chosen) == bo.adaptive.refly_top:
+            break
+    return np.asarray(chosen, dtype=int)
+
+
+def refly_choice(bo: "SafeBO", cands: np.ndarray) -> int:
+    """Data index of the candidate with the best mean over every flight at exactly that point."""
+    means = [float(np.mean(bo.y[np.all(bo.X == bo.X[i], axis=1)])) for i in cands]
+    return int(cands[int(np.argmax(means))])
+
+
+def final_choice(bo: "SafeBO") -> tuple[int, float, float]:
+    """The recommendation: among the re-flown candidates if a re-fly phase ran, else ``bo.recommend()``."""
+    i, mu, lcb = bo.recommend()
+    cands = bo.refly_set
+    if cands is None or len(cands) == 0:
+        return i, mu, lcb
+    j = refly_choice(bo, cands)
+    m, l_ = bo.smoothed()
+    return j, float(m[j]), float(l_[j])
