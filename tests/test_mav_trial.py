@@ -4,6 +4,7 @@ gains read back from the vehicle."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -107,7 +108,7 @@ def test_fault_geofence_or_tracking_trip_aborts_restores_and_continues(rig, limi
     assert f.outcome == outcome and f.P < 0 and not f.score["safe"] and f.meta["restored"]
     assert text in f.meta["message"]
     assert_baseline(sim)
-    obj.monitor.limits.x_max, obj.monitor.limits.tracking_error_max = 2.0, 1.0
+    obj.monitor.limits = dataclasses.replace(obj.monitor.limits, x_max=2.0, tracking_error_max=1.0)
     assert obj.fly(v.profile.default).outcome == "ok"  # the campaign can go on
 
 

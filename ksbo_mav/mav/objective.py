@@ -25,7 +25,7 @@ import numpy as np
 
 from ksbo_mav.errors import KsboError, VehicleError
 from ksbo_mav.jsonio import dumps
-from ksbo_mav.mav.monitor import Limits, Monitor
+from ksbo_mav.mav.monitor import Monitor, limits_from_profile
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.params import VerifyError
 from ksbo_mav.mav.snapshot import fsync_write
@@ -71,7 +71,7 @@ class MavlinkObjective:
         self.baseline = vehicle.gains.from_vehicle(baseline)
         self.out_dir = Path(out_dir)
         self.mission = vehicle.mission
-        self.monitor = Monitor(Limits.from_profile(self.profile, safety), vehicle.stack.modes["guided"])
+        self.monitor = Monitor(limits_from_profile(self.profile, safety), vehicle.stack.modes["guided"])
         self.settle_s = settle_s
         self.link_wait_s = link_wait_s
         self.index = first_index
