@@ -28,7 +28,6 @@ Hyperparameters (``theta``, all in log space, the order used by fitting and grad
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from math import comb
 from typing import Any
 
@@ -37,17 +36,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from ksbo_mav.errors import InputError
 from ksbo_mav.gp.symmetric import METHODS, Method, elementary_symmetric, esp_from_power_sums, esp_without_one
+from ksbo_mav.gp.terms import Term, resolve_terms, term_variances
 
 #: Rows of X1 per block in :meth:`AdditiveKernel.__call__` (keeps the work arrays in cache).
 _BLOCK_ELEMENTS = 1 << 14
-
-
-@dataclass(frozen=True)
-class Term:
-    """One additive term: interaction order ``order`` over the dimensions ``dims`` (sorted, unique)."""
-
-    order: int
-    dims: tuple[int, ...]
 
 
 class AdditiveKernel:
@@ -104,65 +96,8 @@ class AdditiveKernel:
         D = int(self.dim)
         if self.method not in METHODS:
             raise InputError(f"unknown method {self.method!r}; expected one of {', '.join(METHODS)}")
-        arr = np.atleast_1d(np.asarray(self.orders))
-        if arr.ndim != 1 or (arr.size and not np.issubdtype(arr.dtype, np.integer)):
-            raise InputError(f"orders must be a sequence of integers, got {self.orders!r}")
-        orders = [int(r) for r in arr]
-        if not orders or len(set(orders)) != len(orders):
-            raise InputError(f"orders must be a non-empty sequence of distinct integers, got {self.orders!r}")
-
-        def check_dims(dims: Sequence[int], what: str) -> tuple[int, ...]:
-            arr = np.asarray(dims)
-            if arr.ndim != 1 or arr.size == 0 or not np.issubdtype(arr.dtype, np.integer):
-                raise InputError(f"{what} must be a non-empty sequence of integer indices, got {dims!r}")
-            if arr.min() < 0 or arr.max() >= D or len(set(arr.tolist())) != arr.size:
-                raise InputError(f"{what} must be distinct indices in 0..{D - 1}, got {list(arr)}")
-            return tuple(sorted(int(i) for i in arr))
-
-        if self.active_dims is None:
-            sets = {r: tuple(range(D)) for r in orders}
-        elif isinstance(self.active_dims, Mapping):
-            missing = [r for r in orders if r not in self.active_dims]
-            if missing:
-                raise InputError(f"active_dims has no dimensions for order(s) {missing}")
-            sets = {r: check_dims(self.active_dims[r], f"active_dims[{r}]") for r in orders}
-        else:
-            common = check_dims(self.active_dims, "active_dims")
-            sets = {r: common for r in orders}
-        used = set().union(*sets.values())
-        dropped = tuple(i for i in range(D) if i not in used)
-        terms = []
-        for r in orders:
-            dims = sets[r]
-            if r == 1 and self.inactive_in_order1 and dropped:
-                dims = tuple(sorted(set(dims) | set(dropped)))
-            if not 1 <= r <= len(dims):
-                raise InputError(f"order {r} needs 1 <= order <= number of its dimensions ({len(dims)})")
-            terms.append(Term(r, dims))
-        extra = bool(self.inactive_in_order1 and dropped and 1 not in orders)
-        if extra:
-            terms.append(Term(1, dropped))
-        n_terms = len(terms)
-
-        default = 1.0 / n_terms
-        ov = self.order_variances
-        if ov is None:
-            var = [default] * len(orders)
-        elif isinstance(ov, Mapping):
-            unknown = [r for r in ov if int(r) not in orders]
-            if unknown:
-                raise InputError(f"order_variances names order(s) {unknown} not in orders {orders}")
-            var = [float(ov.get(r, default)) for r in orders]
-        else:
-            arr = np.atleast_1d(np.asarray(ov, dtype=float))
-            if arr.shape != (len(orders),):
-                raise InputError(f"order_variances must have one value per order ({len(orders)}), got {arr.shape}")
-            var = arr.tolist()
-        if extra:
-            var.append(default if self.inactive_variance is None else float(self.inactive_variance))
-        variances = np.asarray(var, dtype=float)
-        if not np.all(np.isfinite(variances)) or np.any(variances <= 0):
-            raise InputError(f"term variances must be positive and finite, got {variances.tolist()}")
+        orders, terms, dropped, extra = resolve_terms(D, self.orders, self.active_dims, self.inactive_in_order1)
+        variances = term_variances(orders, len(terms), extra, self.order_variances, self.inactive_variance)
 
         ls = np.asarray(self.lengthscales, dtype=float)
         if ls.ndim == 0:
