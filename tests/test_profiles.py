@@ -49,14 +49,14 @@ def test_typed_values_of_the_shipped_profiles():
 
 def test_typed_defaults_match_what_the_client_uses():
     from ksbo_mav.mav.mission import Mission
-    from ksbo_mav.mav.monitor import Limits
+    from ksbo_mav.mav.monitor import limits_from_profile
 
     for name in ("sim-planar", "ardupilot-copter"):
         p = load_profile(name)
-        lim, s = Limits.from_profile(p), p.safety
-        assert (lim.x_max, lim.y_max, lim.z_min, lim.z_max, lim.tilt_max_deg, lim.tracking_error_max,
-                lim.heartbeat_timeout) == (s.x_max_m, s.y_max_m, s.z_min_m, s.z_max_m, s.tilt_max_deg,
-                                           s.tracking_error_max_m, s.heartbeat_timeout_s)
+        lim, s = limits_from_profile(p), p.safety
+        assert (lim.x_max, lim.y_max, lim.z_min, lim.z_max, lim.tilt_max_deg, lim.tracking_error_max) == (
+            s.x_max_m, s.y_max_m, s.z_min_m, s.z_max_m, s.tilt_max_deg, s.tracking_error_max_m)
+        assert limits_from_profile(p, {"x_max_m": 0.5}).x_max == 0.5
         m, ms = Mission.from_profile(p), p.mission_spec
         assert (m.kind, m.scale, m.scale2, m.period, m.center_up, m.laps, m.rate_hz) == (
             ms.type, ms.scale_m, ms.scale_east, ms.period_s, ms.center_up_m, ms.laps, ms.rate_hz)
@@ -118,3 +118,11 @@ def test_cli_reports_a_bad_profile_in_one_line(tmp_path):
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 2 and out.stdout == ""
     assert out.stderr.count("\n") == 1 and "'x_maxm'" in out.stderr and str(path) in out.stderr
+
+
+def test_unknown_safety_override_is_refused():
+    from ksbo_mav.errors import InputError
+    from ksbo_mav.mav.monitor import limits_from_profile
+
+    with pytest.raises(InputError, match="unknown safety override 'x_max'"):
+        limits_from_profile(load_profile("sim-planar"), {"x_max": 0.5})
