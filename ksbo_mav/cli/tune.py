@@ -60,9 +60,10 @@ class Display:
     def update(self, e: Any) -> None:
         f = e.flight
         mark = "ok" if f.outcome == "ok" else f"ABORT {f.outcome}"
-        self.console.print(f"{e.kind:>7} trial {f.meta['trial']:3d}  P = {f.P:+.4f}  {mark:<12} "
-                           f"best {e.best_P:+.4f}  unsafe {e.n_unsafe}  aborted {e.n_aborted}  "
-                           f"crashed {e.n_crashed}  failed {e.n_failed}", highlight=False, markup=False)
+        # One line of at most 80 columns: P < 0 / aborted by the monitor / crashed / failed (not the gains).
+        self.console.print(f"{e.kind:>7} trial {f.meta['trial']:3d}  P {f.P:+.4f} {mark:<12} best {e.best_P:+.4f}  "
+                           f"P<0 {e.n_unsafe} abort {e.n_aborted} crash {e.n_crashed} fail {e.n_failed}",
+                           highlight=False, markup=False, soft_wrap=True)
         self.progress.update(self.task, completed=e.n_opt, status=f"best P {e.best_P:+.4f}")
 
 
