@@ -39,9 +39,10 @@ def test_20x_no_setpoint_skipped_no_link_loss(tmp_path):
 @pytest.mark.skipif(shutil.which("mavproxy.py") is None,
                     reason="MAVProxy not installed (interop extra: pip install -e '.[interop]'; CI installs it)")
 def test_campaign_through_mavproxy(tmp_path):
-    # 3x: two Python processes (MAVProxy forwarding both ways, and the tool) share 2 cores with the SITL; at 10x
-    # a 0.2 s hiccup of either is 2 s of flight without setpoints.
-    sitl = sitl_or_skip("ardupilot", 3)
+    # Real time, as a ground station is used: two Python processes (MAVProxy forwarding both ways, and the tool)
+    # share 2 cores with the SITL, and at a speed-up a 0.2 s hiccup of MAVProxy (invisible to the tool) is
+    # seconds of flight on stale setpoints. Two flights: the baseline and its confirmation.
+    sitl = sitl_or_skip("ardupilot", 1)
     out = free_udp_port()
     mp = subprocess.Popen(["mavproxy.py", f"--master=tcp:127.0.0.1:{sitl.tcp_port}",
                            f"--out=udp:127.0.0.1:{out}", f"--state-basedir={tmp_path}", "--daemon",
@@ -52,9 +53,10 @@ def test_campaign_through_mavproxy(tmp_path):
         # downloads all 1349 parameters, during which it forwards little) before the tool joins the link.
         time.sleep(10)
         d = tmp_path / "via-gcs"
-        r = tool("tune", str(d), "--udp", f"127.0.0.1:{out}", "--prior", "none", "--budget", "2", "--json")
+        r = tool("tune", str(d), "--udp", f"127.0.0.1:{out}", "--prior", "none", "--budget", "1", "--json")
         assert r.returncode == 0, r.stderr[-3000:]
         summary = json.loads(r.stdout[r.stdout.index("{"):])
+        assert summary["n_failed"] == 0 and summary["ended"] == "landed"
     finally:
         mp.terminate()
         try:
@@ -63,10 +65,10 @@ def test_campaign_through_mavproxy(tmp_path):
             mp.kill()
         sitl.stop()
     recs = trials(d)
-    assert len(recs) == 3 and all(rec["outcome"] == "ok" for rec in recs), [rec["message"] for rec in recs]
+    assert len(recs) == 2 and all(rec["outcome"] == "ok" for rec in recs), [rec["message"] for rec in recs]
     assert all(rec["score"]["complete"] and rec["score"]["rate_hz"] >= 10 for rec in recs)
     # MAVProxy's stream requests reset our message intervals; the tool noticed and re-asserted them.
     assert sum(rec["link"]["rate_reasserts"] for rec in recs) >= 1
-    # The same vehicle flown directly tracks lap 2 with 0.20-0.26 m RMS at its default gains.
-    assert 0.1 < summary["baseline"]["rms_m"] < 0.4
+    # The same vehicle flown directly tracks lap 2 with 0.17-0.26 m RMS at its default gains (BENCHMARKS.md).
+    assert all(0.1 < rec["score"]["rms_lap2_m"] < 0.35 for rec in recs), [rec["score"]["rms_lap2_m"] for rec in recs]
     assert "landed and disarmed" in r.stderr
