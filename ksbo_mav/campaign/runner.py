@@ -58,6 +58,7 @@ class Campaign:
         self.objective: MavlinkObjective | None = None
         self.journal: Journal | None = None
         self.baseline_trial: int | None = None
+        self.unused: list[JournalEntry] = []  # journalled trials a diverged replay could not use
 
     # --- setup -----------------------------------------------------------------------------------------------
     def _connect(self) -> Vehicle:
@@ -272,7 +273,7 @@ class Campaign:
                       "trial": self.baseline_trial, "rms_m": opt[0].rms if opt else None},
             best={"x": best.tolist(), "values": best_values, "P_model": float(result.fun),
                   "P_confirm": float(np.mean(confirms)) if confirms else None, "P_confirm_all": confirms,
-                  "unused_journal_trials": [e.trial for e in getattr(self, "unused", [])]},
+                  "unused_journal_trials": [e.trial for e in self.unused]},
             accepted=self.cfg.accept, on_vehicle=on_vehicle, n_trials=len(journal.entries),
             n_unsafe=int(sum(e.P < 0 for e in opt)),
             n_aborted=sum(e.outcome != "crash" for e in gain_aborts),
