@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from sitl_helpers import accept_then_restore, param_diff, read_all, tool, trials
+from sitl_helpers import accept_then_restore, param_diff, read_all, short_campaign, tool, trials
 
 from ksbo_mav.mav.trajectory import trajectory_from_tlog
 from ksbo_mav.mav.tlog import read_tlog
@@ -22,16 +22,12 @@ PROFILE = "ardupilot-copter"
 
 
 def tune(sitl, d, *extra: str) -> subprocess.CompletedProcess:
-    return tool("tune", str(d), "--tcp", f"127.0.0.1:{sitl.tcp_port}", "--prior", "none", *extra)
+    return tool("tune", str(d), *sitl.cli_args, "--prior", "none", *extra)
 
 
 @pytest.fixture(scope="module")
 def campaign(ardupilot_sitl, tmp_path_factory):
-    """One short campaign from the ground (baseline + 2 optimiser trials + 1 confirmation)."""
-    d = tmp_path_factory.mktemp("ap") / "camp"
-    r = tune(ardupilot_sitl, d, "--budget", "3", "--json")
-    assert r.returncode == 0, r.stderr[-3000:]
-    return d, json.loads(r.stdout[r.stdout.index("{"):]), r.stderr
+    return short_campaign(ardupilot_sitl, tmp_path_factory.mktemp("ap") / "camp")
 
 
 def test_campaign_takes_off_flies_lands_and_leaves_no_trace(ardupilot_sitl, campaign):

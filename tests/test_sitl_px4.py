@@ -10,7 +10,7 @@ import json
 
 import pytest
 
-from sitl_helpers import accept_then_restore, param_diff, read_all, tool, trials
+from sitl_helpers import accept_then_restore, param_diff, read_all, short_campaign, tool, trials
 
 pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
 PROFILE = "px4-copter"
@@ -19,11 +19,7 @@ PROFILE = "px4-copter"
 @pytest.fixture(scope="module")
 def campaign(px4_sitl, tmp_path_factory):
     assert px4_sitl.set_param("COM_RCL_EXCEPT", 4, int32=True) == 4
-    d = tmp_path_factory.mktemp("px4") / "camp"
-    r = tool("tune", str(d), "--udp", f"127.0.0.1:{px4_sitl.udp_port}", "--prior", "none", "--budget", "3",
-             "--json")
-    assert r.returncode == 0, r.stderr[-3000:]
-    return d, json.loads(r.stdout[r.stdout.index("{"):]), r.stderr
+    return short_campaign(px4_sitl, tmp_path_factory.mktemp("px4") / "camp")
 
 
 def test_px4_campaign_from_the_ground(px4_sitl, campaign):

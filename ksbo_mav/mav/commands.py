@@ -60,13 +60,17 @@ class Commander:
         items = list(self.texts)[since:]
         return "; ".join(t for _, t in items[-3:])
 
-    def command(self, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> int:
-        """Send COMMAND_LONG until acknowledged; returns MAV_RESULT. :class:`VehicleError` if never acknowledged."""
+    def send(self, cmd: int, *params: float, confirmation: int = 0) -> None:
+        """One COMMAND_LONG, not waiting for its acknowledgement (p1.. given, the rest 0)."""
         p = list(params) + [0.0] * (7 - len(params))
         link = self.link
+        link.send(link.mav.command_long_encode(link.target_system, link.target_component, cmd, confirmation, *p))
+
+    def command(self, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> int:
+        """Send COMMAND_LONG until acknowledged; returns MAV_RESULT. :class:`VehicleError` if never acknowledged."""
+        link = self.link
         for confirmation in range(retries):
-            link.send(link.mav.command_long_encode(link.target_system, link.target_component, cmd, confirmation,
-                                                   *p))
+            self.send(cmd, *params, confirmation=confirmation)
             ack = link.wait(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, timeout)
             if ack is not None:
                 return int(ack.result)

@@ -102,7 +102,7 @@ class MavlinkObjective:
         rec = TrialRecorder(vehicle=(link.target_system, link.target_component))
         link.taps.append(rec.feed)
         started = time.time()
-        lost0, reasserts0 = v.telemetry.lost, v.telemetry.reasserts
+        reasserts0 = v.telemetry.reasserts
         self._lag: list[float] = []
         outcome, message, L, stop = T.OK, "", 0, None
         try:
@@ -124,7 +124,7 @@ class MavlinkObjective:
             link.taps.remove(rec.feed)
             link.tlog.close()
             link.tlog = None
-        link_stats = {"lost_packets": v.telemetry.lost - lost0, "rate_reasserts": v.telemetry.reasserts - reasserts0,
+        link_stats = {"lost_packets": rec.lost, "rate_reasserts": v.telemetry.reasserts - reasserts0,
                       **_lag_stats(self._lag, self.mission.window[0])}
         flight = self._record(i, stem, x, rec, outcome, message, restored, started, label, link_stats)
         self.last_flight = flight

@@ -1,4 +1,4 @@
-"""Telemetry service: the vehicle's latest state, its clock, stream rates and packet loss.
+"""Telemetry service: the vehicle's latest state, its clock and stream rates.
 
 Stream rates are requested with SET_MESSAGE_INTERVAL only. REQUEST_DATA_STREAM would change ArduPilot's saved
 ``MAVn_*`` stream-rate parameters (left changed after the campaign); SET_MESSAGE_INTERVAL changes nothing stored.
@@ -6,8 +6,9 @@ A ground station sharing the link may still send REQUEST_DATA_STREAM, which rese
 rate (ArduPilot documents this): :meth:`Telemetry.keep_rates` re-asserts them whenever the measured rate falls
 below what we asked for, and :meth:`Telemetry.rate_hz` measures the rate actually received, on vehicle time.
 
-Lost packets are told apart from a slow client by MAVLink sequence numbers: a gap in the vehicle's ``seq`` is a
-packet lost on the link; a late answer with no gap is the client (or the machine) being slow.
+Lost packets are told apart from a slow client by MAVLink sequence numbers, counted per trial by
+:class:`~ksbo_mav.mav.trajectory.TrialRecorder` (so a tlog replay counts the same): a gap in the vehicle's ``seq``
+is a packet lost on the link; a late setpoint with no gap is the client (or the machine) being slow.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ksbo_mav.mav.clock import VehicleClock
-from ksbo_mav.mav.commands import Commander
+from ksbo_mav.mav.commands import CMD_INTERVAL, Commander
 from ksbo_mav.mav.link import Link
 
 MSG_ATTITUDE, MSG_LPN, MSG_ACTUATOR = 30, 32, 375
@@ -33,9 +34,7 @@ class Telemetry:
         self.clock = VehicleClock()
         self.last_lpn: Any = None
         self.last_att: Any = None
-        self.lost = 0  # packets lost on the link (sequence gaps in the vehicle's messages)
         self.received = 0
-        self._seq: dict[int, int] = {}
         self._lpn_stamps: deque[int] = deque(maxlen=256)
         self._last_assert_ms = -1e18
         self.reasserts = 0
@@ -46,13 +45,6 @@ class Telemetry:
         if not self.link.is_vehicle(msg):
             return
         self.received += 1
-        comp = msg.get_srcComponent()
-        seq = msg.get_seq()
-        if comp in self._seq:
-            gap = (seq - self._seq[comp] - 1) % 256
-            if gap < 128:  # a large "gap" is a reordered / duplicated packet, not a loss
-                self.lost += gap
-        self._seq[comp] = seq
         self.clock.feed(msg)
         kind = msg.get_type()
         if kind == "LOCAL_POSITION_NED":
@@ -95,9 +87,7 @@ class Telemetry:
         if self.reasserts == 1:
             log(f"LOCAL_POSITION_NED arrives at {r:.0f} Hz (asked {self.rate_wanted:.0f} Hz): another ground "
                 "station's stream request may have reset it; re-asserting the message intervals")
-        link = self.link
         period_us = 1e6 / self.rate_wanted
         for m in (MSG_LPN, MSG_ATTITUDE):  # fire and forget: waiting for the ACK would stall the setpoint stream
-            link.send(link.mav.command_long_encode(link.target_system, link.target_component,
-                                                   511, 0, m, period_us, 0, 0, 0, 0, 0))
+            self.cmd.send(CMD_INTERVAL, m, period_us)
         self._last_assert_ms = self.clock.last_ms

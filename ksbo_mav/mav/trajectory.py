@@ -89,7 +89,7 @@ class TrialRecorder:
         comp, seq = msg.get_srcComponent(), msg.get_seq()
         if comp in self._seq:
             gap = (seq - self._seq[comp] - 1) % 256
-            self.lost += gap if gap < 128 else 0
+            self.lost += gap if gap < 128 else 0  # a large "gap" is a reordered / duplicated packet, not a loss
         self._seq[comp] = seq
         if kind == "LOCAL_POSITION_NED":
             self.pos[int(msg.time_boot_ms)] = _ned(msg)
