@@ -72,7 +72,8 @@ def changed_params(sitl, d: Path) -> list[str]:
                   and (k not in now or abs(now[k] - val) > 1e-6 * max(1.0, abs(val))))
 
 
-def run_one(kind: str, seed: int, budget: int, instance: int, method: str = "ksbo") -> dict:
+def run_one(kind: str, seed: int, budget: int, instance: int, method: str = "ksbo",
+            options: list[str] | None = None) -> dict:
     work = Path(tempfile.mkdtemp(prefix=f"bench-sitl-{kind}-{seed}-"))
     sitl = start_sitl(kind, instance=instance, speedup=SPEED[kind], workdir=work / "sitl")
     try:
@@ -83,7 +84,7 @@ def run_one(kind: str, seed: int, budget: int, instance: int, method: str = "ksb
         t0 = time.time()
         r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *args, "--budget", str(budget),
                             "--seed", str(seed), "--method", method, "--prior", "none", "--confirm", "3",
-                            "--end", "hold", "--json"],
+                            "--end", "hold", "--json", *[f"--option={o}" for o in options or []]],
                            capture_output=True, text=True, timeout=3600)
         wall = time.time() - t0
         if r.returncode != 0:
@@ -93,7 +94,8 @@ def run_one(kind: str, seed: int, budget: int, instance: int, method: str = "ksb
         confirm = [x["score"]["rms_lap2_m"] for x in recs if x["label"] == "confirm"]
         base = reflown_baseline(sitl, d, 3)
         changed = changed_params(sitl, d)
-        return {"kind": kind, "seed": seed, "method": method, "wall_s": wall, "trials": len(recs),
+        return {"kind": kind, "seed": seed, "method": method, "options": options or [], "wall_s": wall,
+                "trials": len(recs),
                 "wall_per_trial_s": statistics.median(x["wall_s"] for x in recs),
                 "baseline_rms": statistics.mean(base), "best_rms": statistics.mean(confirm),
                 "aborted": s["n_aborted"], "unsafe": s["n_unsafe"], "failed": s.get("n_failed", 0),
@@ -108,16 +110,19 @@ def main() -> None:
     ap.add_argument("--budget", type=int, default=30)
     ap.add_argument("--stacks", nargs="+", default=["ardupilot", "px4"], choices=sorted(SPEED))
     ap.add_argument("--method", default="ksbo", help="optimiser of the campaigns (default ksbo)")
+    ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                    help="optimiser option passed to `ksbo-mav tune --option` (repeatable)")
     ap.add_argument("--no-write", action="store_true", help="print only, do not update BENCHMARKS.md")
     args = ap.parse_args()
     rows = []
     for kind in args.stacks:
         for k, seed in enumerate(args.seeds):
-            row = run_one(kind, seed, args.budget, instance=5 + k, method=args.method)
+            row = run_one(kind, seed, args.budget, instance=5 + k, method=args.method, options=args.option)
             print(json.dumps(row), flush=True)
             rows.append(row)
     lines = [f"Machine: {machine()}. Script: `python scripts/bench_sitl_campaign.py --budget {args.budget} --seeds "
-             f"{' '.join(map(str, args.seeds))} --method {args.method}`. Each campaign starts on the ground with "
+             f"{' '.join(map(str, args.seeds))} --method {args.method}"
+             + "".join(f" --option {o}" for o in args.option) + "`. Each campaign starts on the ground with "
              "fresh parameters "
              f"(ArduCopter SITL -s {SPEED['ardupilot']:g}, PX4 SITL -s {SPEED['px4']:g}, COM_RCL_EXCEPT 4 set by "
              "the script), `--prior none`, the recommendation re-flown 3 times (`--confirm 3`), the baseline "
@@ -137,7 +142,8 @@ def main() -> None:
     body = "\n".join(lines)
     print(body)
     if not args.no_write:
-        write_section(f"Real autopilots from the ground (issue 12), method {args.method}", body)
+        opts = "".join(f", {o}" for o in args.option)
+        write_section(f"Real autopilots from the ground (issue 12), method {args.method}{opts}", body)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,9 @@ from ksbo_sim.process import SimProcess, free_udp_port
     (["--profile", "no-such-profile"], ["no-such-profile"]),
     (["--n-prior", "-3"], ["n_prior"]),
     (["--sysid", "300"], ["sysid", "1..255"]),
+    (["--option", "bogus=1"], ["unknown option(s) bogus", "backup_beta"]),
+    (["--option", "backup_beta=-1"], ["backup_beta must be positive"]),
+    (["--option", "backup_beta"], ["KEY=VALUE"]),
 ])
 def test_bad_options_refused_before_connecting_and_nothing_written(tmp_path, bad, words):
     d = tmp_path / "camp"

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 import ksbo_mav
 from ksbo_mav.opt.model import ModelSpec, SafetyModel
+from ksbo_mav.opt import region
 from ksbo_mav.opt.safe_bo import SafeBO, SafeBOConfig
 
 D = 3
@@ -99,7 +100,7 @@ def test_safe_set_and_proposals_are_certified(
             out.append(np.minimum(mu, bo.y.max()) - bo.config.beta * sd)
         return np.min(out, axis=0)
 
-    C = bo.candidates(bo.X[:1])
+    C = region.candidates(bo, bo.X[:1])
     mask = bo.safe_mask(C)
     lcb = lcb_all(C)
     assert np.all(lcb[mask] >= p_min - 1e-12)
@@ -183,7 +184,7 @@ def test_no_certified_point_near_an_unsafe_observation() -> None:
     bo = _random_state(3, 20, 3, 0.3, 0.0)
     bo.config = SafeBOConfig(n_local=256, n_global=64, exclusion_radius=0.1)
     bo.observe(np.array([0.5, 0.5, 0.5]), -1.0)
-    C = bo.candidates(bo.X[:5])
+    C = region.candidates(bo, bo.X[:5])
     C = np.vstack([C, [[0.52, 0.5, 0.5]]])
     mask = bo.safe_mask(C)
     d = np.linalg.norm(C - [0.5, 0.5, 0.5], axis=1)
@@ -210,19 +211,19 @@ def _prior_state(explore_from: str) -> SafeBO:
 
 def test_explore_from_x0_grows_the_search_region_from_the_start() -> None:
     bo = _prior_state("x0")
-    np.testing.assert_array_equal(bo._connected(), [True, False, True])
+    np.testing.assert_array_equal(region.connected(bo), [True, False, True])
     far = np.array([0.9, 0.9, 0.9])
     for _ in range(5):
         mu_d, _, lcb_d, ucb_d = bo.bounds(bo.X)
-        assert not any(np.array_equal(a, far) for a in bo._anchors(lcb_d, ucb_d))
+        assert not any(np.array_equal(a, far) for a in region.anchors(bo, lcb_d, ucb_d))
         p = bo.propose()
         assert np.linalg.norm(p.x - far) > 0.5
         bo.observe(p.x, 0.3)
     # Control: under "all" the far, better prior point is an anchor at once.
     bo = _prior_state("all")
-    assert bo._connected().all()
+    assert region.connected(bo).all()
     mu_d, _, lcb_d, ucb_d = bo.bounds(bo.X)
-    assert any(np.array_equal(a, far) for a in bo._anchors(lcb_d, ucb_d))
+    assert any(np.array_equal(a, far) for a in region.anchors(bo, lcb_d, ucb_d))
 
 
 def test_exploitation_phase_takes_at_most_a_fifth_of_the_budget() -> None:
@@ -241,4 +242,4 @@ def test_prior_points_chained_to_the_start_are_connected() -> None:
     X = np.vstack([chain, [[0.9, 0.9, 0.9]], [[0.2, 0.2, 0.2]]])
     bo.n_prior = 6
     bo.fit(X, np.full(7, 0.3))
-    np.testing.assert_array_equal(bo._connected(), [True] * 5 + [False, True])
+    np.testing.assert_array_equal(region.connected(bo), [True] * 5 + [False, True])

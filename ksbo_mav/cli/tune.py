@@ -32,6 +32,9 @@ def add_parser(subparsers) -> None:
                    help="kernel-selection prior: simulator episodes (sim, default for the built-in vehicle), a local "
                         "LHS around the baseline flown on the vehicle (local, default otherwise), or none")
     p.add_argument("--n-prior", type=int, metavar="N", help="prior size (default 36 sim / 8 local)")
+    p.add_argument("--option", action="append", metavar="KEY=VALUE",
+                   help="optimiser option (repeatable; VALUE is JSON), e.g. --option backup_beta=0.5 lets "
+                        "ksbo-adaptive fly uncertified gains the monitor's backup covers (BENCHMARKS.md, issue 13)")
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
     p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end")
     p.add_argument("--end", choices=("land", "hold"), default="land",
@@ -67,11 +70,26 @@ class Display:
         self.progress.update(self.task, completed=e.n_opt, status=f"best P {e.best_P:+.4f}")
 
 
+def option_arg(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` → (key, value); VALUE is parsed as JSON (a bare word stays a string)."""
+    import json
+
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip():
+        raise InputError(f"--option expects KEY=VALUE, got {text!r}")
+    try:
+        return key.strip(), json.loads(value)
+    except json.JSONDecodeError:
+        return key.strip(), value
+
+
 def config_from_args(args: argparse.Namespace):
     """The campaign settings, validated (InputError, one line) before anything is connected or written."""
     from ksbo_mav.campaign import CampaignConfig, CampaignDir
 
-    given = {k: getattr(args, k) for k in _DEFINING if getattr(args, k) is not None}
+    given: dict[str, Any] = {k: getattr(args, k) for k in _DEFINING if getattr(args, k) is not None}
+    if getattr(args, "option", None):
+        given["options"] = dict(option_arg(o) for o in args.option)  # they define the campaign too
     common = {"accept": args.accept, "end": args.end, "sysid": args.sysid, "compid": args.compid}
     if args.resume:
         if args.dir:

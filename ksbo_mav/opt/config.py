@@ -24,7 +24,8 @@ class SafeBOConfig:
         beta_ucb: exploration multiplier of the UCB acquisition; None = ``beta``.
         rule: ``"ucb"`` (boundary expansion for ``expansion_iters`` BO iterations, then safe UCB) or
             ``"safeopt"`` (widest interval among plausible maximisers and boundary points).
-        expansion_iters: BO iterations of boundary exploration under the ``"ucb"`` rule.
+        expansion_iters: BO iterations of boundary exploration under the ``"ucb"`` rule (at most a tenth of the
+            budget, so a 30-flight vehicle campaign spends 3 on it).
         boundary_tol: boundary band ``LCB − p_min ≤ boundary_tol × signal_std``.
         n_global, n_local: global Sobol / local Gaussian candidates per iteration.
         local_scales: standard deviations (unit cube) of the local clouds.
@@ -90,10 +91,12 @@ class AdaptiveConfig:
         backup_beta: None = only certified queries (β), the paper's rule. A number enables exploration the
             backup covers: while the abort budget lasts, trials may leave the certified set if certified with
             ``backup_beta`` instead of ``beta``, inside the trust region, where the failure model predicts
-            P(abort) ≤ ``abort_tol`` and P(crash) ≤ ``crash_tol``. (Off by default: on the planar suite the
+            P(abort) ≤ ``abort_tol`` and P(crash) ≤ ``crash_tol``, and only until the first crash (the backup is
+            then known not to catch this plant's failures). (Off by default: on the planar suite the
             failures are mostly fast pitch divergences the backup cannot catch — BENCHMARKS.md, issue 13.)
-        refly_last: the last this many evaluations re-fly the ``refly_top`` best completed points (by the
-            recommendation's criterion); the recommendation is then the best mean over each point's flights.
+        refly_last: the last this many evaluations (at most a tenth of the budget) re-fly the ``refly_top`` best
+            completed points (by the recommendation's criterion, and the best single flight); the recommendation
+            is then the best mean over each point's flights.
         reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
             by marginal likelihood (Algorithm 1 stays the first selection); 0 = never.
     """

@@ -23,7 +23,7 @@ from ksbo_mav.gp.linalg import CholeskyError
 def learn_lengthscales(
     X: np.ndarray, g: np.ndarray, signal_std: float, noise_std: float, start: np.ndarray,
     prior: tuple[float, float] = (0.1, 1.0), bounds: tuple[float, float] = (0.01, 1.0),
-    rng: np.random.Generator | None = None, extent_factor: float | None = 2.0,
+    rng: np.random.Generator | None = None, extent_factor: float | None = 2.0, restarts: int = 1,
 ) -> np.ndarray:
     """ML-II (MAP) per-dimension lengthscales of an SE-ARD GP, signal and noise fixed.
 
@@ -35,18 +35,19 @@ def learn_lengthscales(
             dimension (nor falls below ``bounds[0]`` for it): the model may not claim smoothness over a range
             it has not seen. With few points the marginal likelihood prefers long scales (a near-constant
             function explains two close points best); this cap makes the safe set grow with the data instead.
+        restarts: random starts besides ``start`` (0 = a warm-started refit from the previous optimum).
     Returns:
         (d,) lengthscales (``start`` clipped to the caps if every start failed).
     """
     upper = np.full(X.shape[1], bounds[1])
     if extent_factor is not None:
         upper = np.clip(extent_factor * (X.max(axis=0) - X.min(axis=0)), bounds[0], bounds[1])
-    return np.minimum(_ml_lengthscales(X, g, signal_std, noise_std, start, prior, bounds, rng), upper)
+    return np.minimum(_ml_lengthscales(X, g, signal_std, noise_std, start, prior, bounds, rng, restarts), upper)
 
 
 def _ml_lengthscales(X: np.ndarray, g: np.ndarray, signal_std: float, noise_std: float, start: np.ndarray,
                      prior: tuple[float, float], bounds: tuple[float, float],
-                     rng: np.random.Generator | None) -> np.ndarray:
+                     rng: np.random.Generator | None, restarts: int) -> np.ndarray:
     d = X.shape[1]
     v = float(signal_std) ** 2
     k = AdditiveKernel(dim=d, orders=(d,), lengthscales=np.clip(np.asarray(start, float), *bounds),
@@ -54,7 +55,7 @@ def _ml_lengthscales(X: np.ndarray, g: np.ndarray, signal_std: float, noise_std:
                        variance_bounds=(v * (1 - 1e-9), v * (1 + 1e-9)))
     try:
         res = fit_hyperparameters(k, X, np.asarray(g, float), float(noise_std) ** 2, optimize_noise=False,
-                                  lengthscale_prior=prior, n_restarts=1, rng=rng)
+                                  lengthscale_prior=prior, n_restarts=restarts, rng=rng)
     except CholeskyError:
         return np.asarray(start, dtype=float)
     return np.asarray(res.kernel.lengthscales, dtype=float).reshape(-1) * np.ones(d)

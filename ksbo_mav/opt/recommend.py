@@ -17,8 +17,10 @@ from ksbo_mav.opt.model import SafetyModel
 if TYPE_CHECKING:
     from ksbo_mav.opt.safe_bo import SafeBO
 
-#: The exploitation and the re-fly phases each take at most 1/EXPLOIT_SHARE of the budget.
+#: The exploitation phase takes at most 1/EXPLOIT_SHARE of the budget; the boundary-expansion and the re-fly
+#: phases at most 1/PHASE_SHARE each (a 30-flight vehicle campaign keeps 21 flights for the search).
 EXPLOIT_SHARE = 5
+PHASE_SHARE = 10
 
 
 def smoothed(bo: "SafeBO") -> tuple[np.ndarray, np.ndarray]:
@@ -55,9 +57,9 @@ def model_choice(bo: "SafeBO") -> tuple[int, float, float]:
 
 
 def refly_count(bo: "SafeBO") -> int:
-    """Evaluations of the re-fly phase (at most a fifth of the budget)."""
+    """Evaluations of the re-fly phase (at most a tenth of the budget)."""
     n = bo.adaptive.refly_last
-    return min(n, bo.budget // EXPLOIT_SHARE) if bo.budget > 0 else n
+    return min(n, bo.budget // PHASE_SHARE) if bo.budget > 0 else n
 
 
 def refly_candidates(bo: "SafeBO") -> np.ndarray:
@@ -69,6 +71,14 @@ def refly_candidates(bo: "SafeBO") -> np.ndarray:
     if not ok.any():
         ok = bo.complete
     order = [int(i) for i in np.argsort(-np.where(ok, crit, -np.inf)) if ok[i]]
+    # The best single flight competes too: the smoothing pulls a lone point at the edge of the data towards the
+    # prior mean (p_min), so on a smooth, low-noise plant the best gains would otherwise never be re-flown.
+    fine = ok.copy()
+    if bo.failures is not None and not bo.complete.all():
+        fine &= bo.failures.predict(bo.X)[0] <= bo.adaptive.abort_tol
+    if fine.any() and bo.adaptive.refly_top > 1:
+        best = int(np.argmax(np.where(fine, bo.y, -np.inf)))
+        order = order[: bo.adaptive.refly_top - 1] + [best] + order[bo.adaptive.refly_top - 1 :]
     chosen: list[int] = []
     for i in order:
         if not any(np.array_equal(bo.X[i], bo.X[j]) for j in chosen):

@@ -63,3 +63,15 @@ def candidates(bo: "SafeBO", anchors: np.ndarray) -> np.ndarray:
     # could not tell a change there from no change).
     C[:, ~bo.free] = bo.x0[~bo.free]
     return C
+
+
+def fallback_index(bo: "SafeBO", lcb_d: np.ndarray) -> int:
+    """Data index re-flown when no candidate is certified: the best-LCB completed observation (lcb_d (n,)) in the
+    search subspace (x0 always is one), never one the failure model now expects to abort or crash."""
+    inside = np.all(bo.X[:, ~bo.free] == bo.x0[~bo.free], axis=1) & bo.complete
+    if bo.failures is not None and not bo.complete.all() and inside.any():
+        # A trial that completed once may abort the next time (bistable gains on a random start); x0 stays allowed.
+        p_abort, p_crash = bo.failures.predict(bo.X)
+        ok = (p_abort <= bo.adaptive.abort_tol) & (p_crash <= bo.adaptive.crash_tol)
+        inside &= ok | np.all(bo.X == bo.x0, axis=1)
+    return int(np.argmax(np.where(inside, lcb_d, -np.inf))) if inside.any() else int(np.argmax(lcb_d))

@@ -18,7 +18,7 @@ known-safe start this is always a point that was safe before.
 With an :class:`AdaptiveConfig` (issue 13) the state machine also learns the safety GP's lengthscales, keeps a
 trust region, and — while the abort budget lasts — queries points the backup covers (certified with
 ``backup_beta``, low predicted abort/crash probability). Aborted and crashed trials are censored: they enter the
-failure model and the exclusion balls, never the GPs as values. Re-fly phase and recommendation: opt.refly.
+failure model and the exclusion balls, never the GPs as values. Re-fly phase and recommendation: opt.recommend.
 """
 
 from __future__ import annotations
@@ -128,8 +128,11 @@ class SafeBO:
         if learn and target is not None and yc.size >= 2:
             start = np.broadcast_to(np.asarray(target.spec.lengthscale, dtype=float), (self.model.dim,))
             a = self.adaptive
+            # Warm start: once a few fits exist, the previous optimum is the only start (no random restart).
+            restarts = 1 if len(self.scale_history) < 4 * a.scale_refit_every else 0
             ls = learn_lengthscales(Xc, yc - self.p_min, target.signal_std, target.noise_std, start,
-                                    a.safety_scale_prior, a.safety_scale_bounds, self.rng, a.scale_extent_factor)
+                                    a.safety_scale_prior, a.safety_scale_bounds, self.rng, a.scale_extent_factor,
+                                    restarts)
             target.spec = target.spec.with_(lengthscale=tuple(float(v) for v in ls))
             target.fit(Xc, yc)
             self.scale_history.append([float(v) for v in ls])
@@ -162,8 +165,11 @@ class SafeBO:
         self.complete = np.append(self.complete, done)
         self.crashed = np.append(self.crashed, outcome is Outcome.CRASHED)
         k, a = self.config.refit_every, self.adaptive
-        every = a.scale_refit_every
-        learn = a.learn_safety_scale and every > 0 and (self.iteration <= 4 * every or self.iteration % every == 0)
+        # The ML-II refit interval grows with the data (every 5 up to 100 trials, 10 at 200): a fit costs O(n^3)
+        # per step while one more trial moves the optimum less and less.
+        every = max(a.scale_refit_every, self.y.size // 20) if a.scale_refit_every > 0 else 0
+        learn = a.learn_safety_scale and every > 0 and (self.iteration <= 4 * a.scale_refit_every
+                                                         or self.iteration % every == 0)
         if learn or (k and self.iteration % k == 0) or (not done and self.failures is not None):
             self._refit(learn=learn)
         elif done or not a.censor_aborts:
@@ -231,19 +237,6 @@ class SafeBO:
             ok[idx[(p_abort > self.adaptive.abort_tol) | (p_crash > self.adaptive.crash_tol)]] = False
         return ok
 
-    # -- candidates ---------------------------------------------------------------------------------------------
-    def _anchors(self, lcb_d: np.ndarray, ucb_d: np.ndarray) -> np.ndarray:
-        """(k, d) centres of the candidate clouds (opt.region.anchors)."""
-        return region.anchors(self, lcb_d, ucb_d)
-
-    def _connected(self) -> np.ndarray:
-        """(n,) bool: observations that may anchor candidate clouds (opt.region.connected)."""
-        return region.connected(self)
-
-    def candidates(self, anchors: np.ndarray) -> np.ndarray:
-        """(m, d) candidate set around ``anchors`` (k, d) (opt.region.candidates)."""
-        return region.candidates(self, anchors)
-
     # -- the step -----------------------------------------------------------------------------------------------
     def n_exploit(self) -> int:
         """Evaluations of the final exploitation phase (at most a fifth of the budget)."""
@@ -256,7 +249,9 @@ class SafeBO:
         if self.remaining is not None and self.remaining <= self.n_exploit():
             return PosteriorMean(self, c.exploit_beta)
         if c.rule == "ucb":
-            if self.iteration >= c.expansion_iters:
+            n_expand = min(c.expansion_iters, self.budget // recommend.PHASE_SHARE) if self.budget > 0 \
+                else c.expansion_iters
+            if self.iteration >= n_expand:
                 return SafeUCB(self)
             return BoundaryExpansion(self, self.p_min, c.boundary_tol * self.model.signal_std)
         _, _, lcb, _ = self.bounds(C)
@@ -271,7 +266,10 @@ class SafeBO:
         a = self.adaptive
         exploring = self.remaining is None or self.remaining > self.n_exploit()
         budget_left = a.max_aborts is None or self.aborts < a.max_aborts
-        self.relaxed = a.backup_beta is not None and exploring and budget_left
+        # The backup is trusted only until it fails once: after a crash (the backup did not recover) the plant's
+        # failures are known to be too fast for it, and only certified points are flown.
+        trusted = not self.crashed[self.n_prior :].any()
+        self.relaxed = a.backup_beta is not None and exploring and budget_left and trusted
         try:
             return self._propose()
         finally:
@@ -280,13 +278,11 @@ class SafeBO:
     def _propose(self) -> Proposal:
         c = self.config
         mu_d, sd_d, lcb_d, ucb_d = self.bounds(self.X)
-        C = self.candidates(self._anchors(lcb_d, ucb_d))
+        C = region.candidates(self, region.anchors(self, lcb_d, ucb_d))  # opt.region: clouds around anchors
         _, _, lcb, _ = self.bounds(C)
         if not self.feasible(C, lcb).any():
             self.fallbacks += 1
-            # Re-evaluate the best-LCB completed observation in the search subspace (x0 always is).
-            inside = np.all(self.X[:, ~self.free] == self.x0[~self.free], axis=1) & self.complete
-            i = int(np.argmax(np.where(inside, lcb_d, -np.inf))) if inside.any() else int(np.argmax(lcb_d))
+            i = region.fallback_index(self, lcb_d)
             return Proposal(self.X[i].copy(), "fallback", float(mu_d[i]), float(sd_d[i]), float(lcb_d[i]))
         rule = self.rule(C, lcb_d)
         score, ok = rule(C)

@@ -1,0 +1,107 @@
+"""The JSBSim 3-D copter as an in-process objective (issue 13's plant suite): fly a gain vector, return P and how
+the flight ended.
+
+It scores exactly like a MAVLink campaign on the same vehicle profile (``ardupilot-copter`` or ``px4-copter``):
+lap-2 RMS tracking error of the horizontal figure-8, ``P = 1 − RMS / (unsafe_rms_ratio · RMS_baseline)`` with the
+baseline flown once at construction, so the baseline scores 0.5. The profile's ``[safety]`` limits are checked on
+every sample by the shared monitor code (:func:`ksbo_sim.monitor.check_state`): a flight that trips them is
+*aborted* (the tuner would stop it and restore the baseline; the backup's recovery itself is not simulated in
+process), one the simulator reports as crashed is *crashed*. The JSBSim model is deterministic: re-flying the same
+gains gives the same P (a SITL's repeat noise is a few per cent of RMS).
+
+Search box: the profile box intersected with the campaign's trust region around the baseline
+(:func:`ksbo_mav.mav.gains.trust_region`), i.e. where ``ksbo-mav tune`` would let a trial go.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ksbo_mav.mav.gains import trust_region
+from ksbo_mav.mav.monitor import limits_from_profile
+from ksbo_mav.opt.outcome import Evaluation, Outcome
+from ksbo_mav.profiles import Profile, load_profile
+from ksbo_sim.monitor import check_state
+
+#: Copter plants of the suite: name → (vehicle profile, simulator personality).
+COPTER_PLANTS: dict[str, tuple[str, str]] = {
+    "copter3d-ardupilot": ("ardupilot-copter", "ardupilot"),
+    "copter3d-px4": ("px4-copter", "px4"),
+}
+
+
+class CopterObjective:
+    """``obj(x)`` → :class:`Evaluation` of gains x (d,) in the profile's order (see the module docstring).
+
+    Attributes:
+        profile: the vehicle profile; bounds: (d, 2) the search box; baseline: (d,) profile defaults;
+        rms_ref: lap-2 RMS (m) of the baseline; n_flights: flights flown so far.
+    """
+
+    def __init__(self, plant: str = "copter3d-ardupilot") -> None:
+        from ksbo_sim.copter3d import Copter3D, Figure8H
+
+        try:
+            profile_name, personality = COPTER_PLANTS[plant]
+        except KeyError:
+            raise KeyError(f"unknown copter plant {plant!r}; known: {', '.join(COPTER_PLANTS)}") from None
+        self.plant = plant
+        self.profile: Profile = load_profile(profile_name)
+        self.vehicle = Copter3D(personality)
+        self.figure = Figure8H()
+        self.limits = limits_from_profile(self.profile)
+        self.ratio = float(self.profile.score_spec.unsafe_rms_ratio)
+        self.baseline = np.asarray(self.profile.default, dtype=float)
+        lo, hi = trust_region(self.profile, self.baseline)
+        self.bounds = np.column_stack([lo, hi])
+        self.n_flights = 0
+        self.rms_ref = math.nan
+        base = self.flight(self.baseline)
+        if base[1] is not Outcome.COMPLETE:
+            raise RuntimeError(f"{plant}: the baseline gains did not complete the figure-8 ({base[1].value})")
+        self.rms_ref = base[0]
+
+    def flight(self, x: np.ndarray) -> tuple[float, Outcome, str]:
+        """Fly gains x (d,): (lap-2 RMS in m or NaN, outcome, monitor message or "")."""
+        from ksbo_sim.copter3d import fly
+
+        x = self.profile.check_gains(np.asarray(x, dtype=float), within_box=False)
+        for name, v in zip(self.profile.names, x):
+            self.vehicle.set_param(name, float(v))
+        f = fly(self.vehicle, self.figure)
+        self.n_flights += 1
+        if f.crashed:
+            return math.nan, Outcome.CRASHED, f"simulator crash code {f.crashed}"
+        ref = self.figure.position(f.t)
+        tilt = math.radians(f.max_tilt_deg) if np.isfinite(f.max_tilt_deg) else None
+        for k in range(f.pos.shape[0]):
+            n, e, d = f.pos[k]
+            hit = check_state(self.limits, float(n), float(e), float(-d), tilt if k == 0 else None,
+                              (float(ref[k, 0]), float(ref[k, 1]), float(-ref[k, 2])))
+            if hit is not None:
+                return float(f.rms_lap2), Outcome.ABORTED, hit[1]
+        return float(f.rms_lap2), Outcome.COMPLETE, ""
+
+    def score(self, rms: float) -> float:
+        """P of a lap-2 RMS (module docstring)."""
+        return 1.0 - rms / (self.ratio * self.rms_ref)
+
+    def __call__(self, x: np.ndarray) -> Evaluation:
+        rms, outcome, _ = self.flight(x)
+        return Evaluation(self.score(rms) if np.isfinite(rms) else None, outcome)
+
+    def expected_outcomes(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Re-fly each row of X (n, d) once (deterministic): (n,) P (NaN if not complete), (n, 3) counts of
+        complete / aborted / crashed — the same shape as :meth:`ksbo_mav.objective.SimObjective.expected_outcomes`."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        P = np.full(X.shape[0], np.nan)
+        counts = np.zeros((X.shape[0], 3), dtype=int)
+        kinds = (Outcome.COMPLETE, Outcome.ABORTED, Outcome.CRASHED)
+        for i, x in enumerate(X):
+            rms, outcome, _ = self.flight(x)
+            counts[i, kinds.index(outcome)] = 1
+            if outcome is Outcome.COMPLETE:
+                P[i] = self.score(rms)
+        return P, counts
