@@ -1,16 +1,21 @@
-"""Issue 13 benchmark: safe BO over the planar plant suite (nominal + variants), with monitor or strict.
+"""Issue 13 benchmark: safe BO over the plant suite — the planar task (nominal + variants, with monitor or
+strict), the JSBSim copter in both personalities (in process) and the ArduCopter / PX4 SITLs (full campaigns).
 
 One process, BLAS pinned to one thread; each run appends one JSON line to ``--out`` (so partial results survive
-and runs can be added later), ``--report`` turns the lines into the BENCHMARKS.md section.
+and runs can be added later), ``report`` turns the lines into the BENCHMARKS.md section.
 
     python scripts/bench_plants.py run --plants nominal,mass+30 --methods ksbo-adaptive --seeds 0-9 \
         --mode monitor --budget 100 --out bench-runs/plants.jsonl
-    python scripts/bench_plants.py report bench-runs/plants.jsonl [--write]
+    python scripts/bench_plants.py run --plants copter3d-ardupilot,copter3d-px4 --budget 30 --seeds 0-2
+    python scripts/bench_plants.py run --plants sitl-ardupilot,sitl-px4 --budget 30 --seeds 0   # slow, idle machine
+    python scripts/bench_plants.py report bench-runs/plants.jsonl [--write NOTES.md]
 
-Per run: the recommendation is re-flown on the 8 fixed initial conditions of that plant (with the run's mode:
-with the monitor a re-flight may abort or crash) → E[P]; the run's own flights are counted as complete /
-aborted / crashed and as the paper's unsafe (P < 0). The best E[P] known per plant is the best re-flown
-recommendation over every run of that plant in the file (and the nominal oracle gains re-flown on it).
+Per run: the recommendation is re-flown (planar: on the plant's 8 fixed initial conditions, in the run's mode, so a
+re-flight may abort or crash; copter: once, it is deterministic; SITL: 3 times, against 3 baseline re-flights)
+→ E[P]; the run's own flights are counted as complete / aborted / crashed and as the paper's unsafe (P < 0). The
+best E[P] known per plant is the best re-flown recommendation over every run of that plant in the file and a
+reference flown by the report (planar: the nominal oracle gains; copter: the horizontal P gains at the box top).
+Copter and SITL rows also give the re-flown lap-2 RMS change against the baseline (P = 1 − RMS / (2 RMS_base)).
 """
 
 from __future__ import annotations
@@ -56,8 +61,37 @@ def _objective(plant: str, seed: int, monitor: bool) -> tuple[Any, np.ndarray, n
     return obj, obj.profile.default, obj.profile.bounds
 
 
+#: SITL plants: a full `ksbo-mav tune` campaign from the ground on a fresh SITL (scripts/bench_sitl_campaign.py).
+SITL_PLANTS = {"sitl-ardupilot": "ardupilot", "sitl-px4": "px4"}
+
+
+def run_sitl(plant: str, method: str, seed: int, budget: int, options: dict[str, Any]) -> dict[str, Any]:
+    """One campaign on a SITL: E[P] is the recommendation's mean lap-2 RMS over its 3 re-flights against the
+    baseline's mean over 3 re-flights after the campaign, on the campaign's own scale P = 1 − RMS / (2 RMS_base)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_sitl_campaign import run_one as sitl_campaign
+
+    row = sitl_campaign(SITL_PLANTS[plant], seed, budget, instance=7, method=method,
+                        options=[f"{k}={json.dumps(v)}" for k, v in options.items()])
+    rec: dict[str, Any] = {"plant": plant, "method": method, "seed": seed, "mode": "monitor", "budget": budget,
+                           "n_prior": 0, "options": options, "sitl": row}
+    if "error" in row:
+        return {**rec, "EP": float("nan"), "error": row["error"], "reflown_counts": [0, 0, 0], "n_unsafe": 0,
+                "n_aborted": 0, "n_crashed": 0, "s_per_iter": 0.0, "wall_s": row["wall_s"], "nfev": 0}
+    change = row["best_rms"] / row["baseline_rms"] - 1.0  # over the completed re-flights (NaN if none)
+    ab = int(row.get("confirm_aborted", 0))
+    return {**rec, "EP": float(1.0 - row["best_rms"] / (2.0 * row["baseline_rms"])),
+            "rms_change": change if np.isfinite(change) else None,
+            "reflown_counts": [int(row.get("confirm_flown", 3)) - ab, ab, 0], "nfev": row["trials"],
+            "n_unsafe": row["unsafe"],
+            "n_aborted": row["aborted"], "n_crashed": row.get("crashed", 0), "s_per_iter": 0.0,
+            "wall_s": row["wall_s"], "x": None}
+
+
 def run_one(plant: str, method: str, seed: int, mode: str, budget: int, n_prior: int,
             options: dict[str, Any]) -> dict[str, Any]:
+    if plant in SITL_PLANTS:
+        return run_sitl(plant, method, seed, budget, options)
     import ksbo_mav
     from scipy.stats import qmc
 
@@ -132,7 +166,9 @@ def best_known(recs: list[dict]) -> dict[str, tuple[float, str]]:
 
     best: dict[str, tuple[float, str]] = {}
     for plant in sorted({r["plant"] for r in recs}):
-        if plant in COPTER_PLANTS:
+        if plant in SITL_PLANTS:
+            best[plant] = (-np.inf, "")
+        elif plant in COPTER_PLANTS:
             obj = CopterObjective(plant)
             X = np.tile(obj.baseline, (2, 1))
             X[0, 0] = obj.bounds[0, 1]
@@ -198,7 +234,10 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
-    r.add_argument("--plants", default="nominal")
+    r.add_argument("--plants", default="nominal",
+                   help="comma-separated: planar suite names (ksbo_sim.plants), copter3d-ardupilot, copter3d-px4, "
+                        "sitl-ardupilot, sitl-px4 (a full campaign on a fresh SITL; slow: keep the seeds few and the "
+                        "machine otherwise idle)")
     r.add_argument("--methods", default="ksbo-adaptive")
     r.add_argument("--seeds", default="0-9")
     r.add_argument("--mode", choices=("monitor", "strict"), default="monitor")

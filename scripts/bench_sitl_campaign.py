@@ -91,14 +91,18 @@ def run_one(kind: str, seed: int, budget: int, instance: int, method: str = "ksb
             return {"kind": kind, "seed": seed, "error": r.stderr.strip().splitlines()[-1], "wall_s": wall}
         s = json.loads(r.stdout[r.stdout.index("{"):])
         recs = [json.loads(p.read_text()) for p in sorted((d / "trials").glob("trial_*.json"))]
-        confirm = [x["score"]["rms_lap2_m"] for x in recs if x["label"] == "confirm"]
+        flown = [x["score"].get("rms_lap2_m") for x in recs if x["label"] == "confirm"]
+        confirm = [v for v in flown if v is not None]  # a confirm flight the monitor aborted has no RMS
         base = reflown_baseline(sitl, d, 3)
         changed = changed_params(sitl, d)
         return {"kind": kind, "seed": seed, "method": method, "options": options or [], "wall_s": wall,
                 "trials": len(recs),
                 "wall_per_trial_s": statistics.median(x["wall_s"] for x in recs),
-                "baseline_rms": statistics.mean(base), "best_rms": statistics.mean(confirm),
+                "baseline_rms": statistics.mean(base),
+                "best_rms": statistics.mean(confirm) if confirm else float("nan"),
+                "confirm_flown": len(flown), "confirm_aborted": len(flown) - len(confirm),
                 "aborted": s["n_aborted"], "unsafe": s["n_unsafe"], "failed": s.get("n_failed", 0),
+                "crashed": s.get("n_crashed", 0),
                 "changed_params": changed}
     finally:
         sitl.stop()
@@ -128,8 +132,8 @@ def main() -> None:
              "the script), `--prior none`, the recommendation re-flown 3 times (`--confirm 3`), the baseline "
              "re-flown 3 times afterwards; RMS = lap-2 3-D RMS tracking error, mean of the 3 re-flights.", "",
              "| stack | seed | trials | wall/trial (s) | campaign wall (s) | baseline RMS (m) | recommended RMS (m) "
-             "| change | aborted | unsafe | failed (not gains) | params left changed |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| change | aborted | unsafe | failed (not gains) | params left changed | re-flights aborted |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if "error" in r:
             lines.append(f"| {r['kind']} | {r['seed']} | campaign failed: {r['error']} |")
@@ -138,7 +142,8 @@ def main() -> None:
         lines.append(f"| {r['kind']} | {r['seed']} | {r['trials']} | {r['wall_per_trial_s']:.1f} | {r['wall_s']:.0f} "
                      f"| {r['baseline_rms']:.3f} | {r['best_rms']:.3f} | {change:+.0f} % | {r['aborted']} "
                      f"| {r['unsafe']} | {r['failed']} | {len(r['changed_params'])} "
-                     f"{', '.join(r['changed_params'][:5])} |")
+                     f"{', '.join(r['changed_params'][:5])} | {r.get('confirm_aborted', 0)} of "
+                     f"{r.get('confirm_flown', 3)} |")
     body = "\n".join(lines)
     print(body)
     if not args.no_write:
