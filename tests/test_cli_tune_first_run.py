@@ -112,3 +112,25 @@ def test_sysid_and_compid_reach_the_wire(tmp_path):
     assert r.returncode == 0, r.stderr
     sent = [rec.msg for rec in read_tlog(d / "trials" / "trial_000.tlog") if rec.sent]
     assert sent and {(m.get_srcSystem(), m.get_srcComponent()) for m in sent} == {(201, 42)}
+
+
+def test_option_reaches_the_campaign_config_and_resume_keeps_it(tmp_path):
+    from ksbo_mav.cli import build_parser
+    from ksbo_mav.cli.tune import config_from_args
+    from ksbo_mav.errors import InputError
+
+    d = tmp_path / "camp"
+    args = build_parser().parse_args(["tune", str(d), "--udp", "127.0.0.1:14550", "--method", "ksbo-adaptive",
+                                      "--option", "backup_beta=0.5", "--option", "max_aborts=4"])
+    cfg = config_from_args(args)
+    assert cfg.options == {"backup_beta": 0.5, "max_aborts": 4}
+    stored = CampaignDir.at(d)
+    stored.root.mkdir()
+    stored.write_settings({"config": cfg.to_dict(), "profile": "sim-planar", "baseline": {}, "x0": [],
+                           "bounds": []})
+    again = build_parser().parse_args(["tune", "--resume", str(d), "--udp", "127.0.0.1:14550"])
+    assert config_from_args(again).options == cfg.options  # resumed as it was
+    other = build_parser().parse_args(["tune", "--resume", str(d), "--udp", "127.0.0.1:14550",
+                                       "--option", "backup_beta=1"])
+    with pytest.raises(InputError, match="would change the campaign"):
+        config_from_args(other)
