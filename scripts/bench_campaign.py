@@ -106,11 +106,12 @@ def run_one(setting: str, method: str, seed: int, args_d: dict) -> dict:
     """One campaign run (in a worker process). Returns the JSON record."""
     from threadpoolctl import threadpool_limits
 
-    threadpool_limits(1)
-    import ksbo_mav
+    import ksbo_mav  # loads scipy's BLAS: threadpool_limits pins only libraries already loaded
     from ksbo_mav.jsonio import jsonable
     from ksbo_mav.objective import SimObjective
     from ksbo_mav.profiles import load_profile
+
+    threadpool_limits(1)
 
     args = argparse.Namespace(**args_d)
     prof = load_profile("sim-planar")

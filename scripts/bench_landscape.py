@@ -58,9 +58,10 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     from threadpoolctl import threadpool_limits
 
-    threadpool_limits(1)
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.objective import SimObjective  # loads scipy's BLAS: the limit pins only loaded libraries
     from ksbo_mav.profiles import load_profile
+
+    threadpool_limits(1)
     from ksbo_sim.episode import random_initial_states
 
     t0 = time.time()
