@@ -76,6 +76,8 @@ class CopterObjective:
             return math.nan, Outcome.CRASHED, f"simulator crash code {f.crashed}"
         ref = self.figure.position(f.t)
         tilt = math.radians(f.max_tilt_deg) if np.isfinite(f.max_tilt_deg) else None
+        # fly() keeps positions per sample but only the flight's largest tilt, so the tilt limit is judged once
+        # (with the first sample) and the fence and tracking limits on every sample.
         for k in range(f.pos.shape[0]):
             n, e, d = f.pos[k]
             hit = check_state(self.limits, float(n), float(e), float(-d), tilt if k == 0 else None,

@@ -124,10 +124,7 @@ def test_option_reaches_the_campaign_config_and_resume_keeps_it(tmp_path):
                                       "--option", "backup_beta=0.5", "--option", "max_aborts=4"])
     cfg = config_from_args(args)
     assert cfg.options == {"backup_beta": 0.5, "max_aborts": 4}
-    stored = CampaignDir.at(d)
-    stored.root.mkdir()
-    stored.write_settings({"config": cfg.to_dict(), "profile": "sim-planar", "baseline": {}, "x0": [],
-                           "bounds": []})
+    _stored(tmp_path, config=cfg.to_dict())  # the campaign as `tune` stores it (same directory)
     again = build_parser().parse_args(["tune", "--resume", str(d), "--udp", "127.0.0.1:14550"])
     assert config_from_args(again).options == cfg.options  # resumed as it was
     other = build_parser().parse_args(["tune", "--resume", str(d), "--udp", "127.0.0.1:14550",

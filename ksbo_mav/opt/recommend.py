@@ -36,6 +36,13 @@ def smoothed(bo: "SafeBO") -> tuple[np.ndarray, np.ndarray]:
     return mu, lcb
 
 
+def unlikely_to_abort(bo: "SafeBO") -> np.ndarray:
+    """(n,) bool: data points the failure model does not expect to abort (all of them while none has aborted)."""
+    if bo.failures is None or bo.complete.all():
+        return np.ones(bo.y.size, dtype=bool)
+    return bo.failures.predict(bo.X)[0] <= bo.adaptive.abort_tol
+
+
 def model_choice(bo: "SafeBO") -> tuple[int, float, float]:
     """Index into the data of the recommended point, with its posterior mean and LCB.
 
@@ -43,9 +50,7 @@ def model_choice(bo: "SafeBO") -> tuple[int, float, float]:
     mean (or LCB): the model's smoothed judgement, not the luckiest noisy observation (part D: bistable gains).
     """
     _, _, lcb_strict, _ = bo.bounds(bo.X)
-    ok = (bo.y >= bo.p_min) & (lcb_strict >= bo.p_min) & bo.complete
-    if bo.failures is not None and not bo.complete.all():
-        ok &= bo.failures.predict(bo.X)[0] <= bo.adaptive.abort_tol  # not next to aborted trials
+    ok = (bo.y >= bo.p_min) & (lcb_strict >= bo.p_min) & bo.complete & unlikely_to_abort(bo)
     mu, lcb = smoothed(bo)
     if not ok.any():
         ok = (bo.y >= bo.p_min) & bo.complete
@@ -73,9 +78,7 @@ def refly_candidates(bo: "SafeBO") -> np.ndarray:
     order = [int(i) for i in np.argsort(-np.where(ok, crit, -np.inf)) if ok[i]]
     # The best single flight competes too: the smoothing pulls a lone point at the edge of the data towards the
     # prior mean (p_min), so on a smooth, low-noise plant the best gains would otherwise never be re-flown.
-    fine = ok.copy()
-    if bo.failures is not None and not bo.complete.all():
-        fine &= bo.failures.predict(bo.X)[0] <= bo.adaptive.abort_tol
+    fine = ok & unlikely_to_abort(bo)
     if fine.any() and bo.adaptive.refly_top > 1:
         best = int(np.argmax(np.where(fine, bo.y, -np.inf)))
         order = order[: bo.adaptive.refly_top - 1] + [best] + order[bo.adaptive.refly_top - 1 :]
