@@ -80,15 +80,20 @@ def test_not_json_campaign_is_one_line(tmp_path):
                    "not readable campaign settings")
 
 
-@pytest.mark.network
-def test_dry_run_prints_the_flight_plan_and_writes_nothing(tmp_path):
+def _tune_against_sim(d, *args: str):
+    """`ksbo-mav tune d --udp … *args` (a subprocess) against the built-in simulator, stopped afterwards."""
     port = free_udp_port()
     sim = SimProcess("--lockstep", out_port=port)
     try:
-        d = tmp_path / "plan"
-        r = run("tune", str(d), "--udp", f"127.0.0.1:{port}", "--dry-run", "--budget", "12", "--prior", "local")
+        return run("tune", str(d), "--udp", f"127.0.0.1:{port}", *args)
     finally:
         sim.stop()
+
+
+@pytest.mark.network
+def test_dry_run_prints_the_flight_plan_and_writes_nothing(tmp_path):
+    d = tmp_path / "plan"
+    r = _tune_against_sim(d, "--dry-run", "--budget", "12", "--prior", "local")
     assert r.returncode == 0, r.stderr
     for words in ("airspace: figure-8", "abort box: |north| <= 2 m", "flights: 21 trials (1 baseline + 8 prior + "
                   "11 optimiser + 1 confirmation)", "batteries:", "nothing was written"):
@@ -101,14 +106,9 @@ def test_sysid_and_compid_reach_the_wire(tmp_path):
     """Issue 12: --sysid/--compid are the ids the tool speaks with (they were parsed and dropped before)."""
     from ksbo_mav.mav.tlog import read_tlog
 
-    port = free_udp_port()
-    sim = SimProcess("--lockstep", out_port=port)
-    try:
-        d = tmp_path / "ids"
-        r = run("tune", str(d), "--udp", f"127.0.0.1:{port}", "--budget", "1", "--confirm", "0", "--prior", "none",
-                "--sysid", "201", "--compid", "42", "--end", "hold")
-    finally:
-        sim.stop()
+    d = tmp_path / "ids"
+    r = _tune_against_sim(d, "--budget", "1", "--confirm", "0", "--prior", "none", "--sysid", "201", "--compid",
+                          "42", "--end", "hold")
     assert r.returncode == 0, r.stderr
     sent = [rec.msg for rec in read_tlog(d / "trials" / "trial_000.tlog") if rec.sent]
     assert sent and {(m.get_srcSystem(), m.get_srcComponent()) for m in sent} == {(201, 42)}
