@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from ksbo_mav.mav.gains import trust_region
+from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.opt.outcome import Evaluation, Outcome
 from ksbo_mav.profiles import Profile, load_profile
@@ -41,7 +42,7 @@ class CopterObjective:
     """
 
     def __init__(self, plant: str = "copter3d-ardupilot") -> None:
-        from ksbo_sim.copter3d import Copter3D, Figure8H
+        from ksbo_sim.copter3d import Copter3D
 
         try:
             profile_name, personality = COPTER_PLANTS[plant]
@@ -50,7 +51,7 @@ class CopterObjective:
         self.plant = plant
         self.profile: Profile = load_profile(profile_name)
         self.vehicle = Copter3D(personality)
-        self.figure = Figure8H()
+        self.figure = Mission.from_profile(self.profile).figure8h  # the campaign's mission, lead-in included
         self.limits = limits_from_profile(self.profile)
         self.ratio = float(self.profile.score_spec.unsafe_rms_ratio)
         self.baseline = np.asarray(self.profile.default, dtype=float)

@@ -34,7 +34,15 @@ def _positive(obj: Any, *names: str) -> None:
 
 @dataclass(frozen=True)
 class SafetyLimits:
-    """``[safety]``: abort thresholds of a flight (x north, y east, z height above home, up)."""
+    """``[safety]``: abort thresholds of a flight (x north, y east, z height above home, up).
+
+    ``backup_covers_trials`` declares that a bad trial is slow enough for the monitor and the restored baseline
+    gains (the backup) to catch: true when every tuned gain is an outer (position/velocity) loop whose output the
+    autopilot clips to its lean-angle limit (ANGLE_MAX, MPC_TILTMAX_AIR) and the attitude loops are untouched.
+    ``ksbo-adaptive`` then may fly gains outside the certified set while its abort budget lasts (option
+    ``backup_beta``, :data:`ksbo_mav.campaign.config.BACKUP_BETA`). False (the default) when the tuned gains
+    include an attitude loop or nothing bounds the tilt: the planar task's bad gains flip the vehicle in 0.2 s.
+    """
 
     x_max_m: float = 2.0
     y_max_m: float = math.inf
@@ -43,6 +51,7 @@ class SafetyLimits:
     tilt_max_deg: float = 85.0
     tracking_error_max_m: float = 1.0
     heartbeat_timeout_s: float = 3.0
+    backup_covers_trials: bool = False
 
     def __post_init__(self) -> None:
         _positive(self, "x_max_m", "y_max_m", "tilt_max_deg", "tracking_error_max_m", "heartbeat_timeout_s")
@@ -68,7 +77,8 @@ class TrustRegion:
 @dataclass(frozen=True)
 class MissionSpec:
     """``[mission]``: the figure-8 flown in every trial (``figure8-xz``: planar x-z; ``figure8-ne``: horizontal,
-    north = scale_m sin wt, east = scale_east_m sin 2wt at center_up_m)."""
+    north = scale_m sin wt, east = scale_east_m sin 2wt at center_up_m). ``lead_in_s`` (figure8-ne only) starts the
+    pattern from rest over that many seconds (:mod:`ksbo_sim.lead_in`) instead of with a velocity step."""
 
     type: str = "figure8-xz"
     scale_m: float = 0.75
@@ -77,11 +87,18 @@ class MissionSpec:
     center_up_m: float = 1.0
     laps: int = 2
     rate_hz: int = 50
+    lead_in_s: float = 0.0
 
     def __post_init__(self) -> None:
         if self.type not in MISSION_TYPES:
             raise InputError(f"type {self.type!r} unknown (known: {', '.join(MISSION_TYPES)})")
         _positive(self, "scale_m", "scale_east_m", "period_s", "laps", "rate_hz")
+        if not 0 <= self.lead_in_s < self.period_s * (self.laps - 1):
+            raise InputError(f"lead_in_s must be in [0, {self.period_s * (self.laps - 1):g}) s (before the scored "
+                             f"last lap), got {self.lead_in_s:g}")
+        if self.lead_in_s and self.type != "figure8-ne":
+            raise InputError("lead_in_s applies to figure8-ne missions only (figure8-xz is the paper's task, "
+                             "which starts from a random initial velocity)")
         if 1000 % self.rate_hz:
             raise InputError(f"rate_hz {self.rate_hz} must divide 1000")
 
@@ -148,12 +165,15 @@ def section_from_table(cls: type, table: dict[str, Any], name: str, where: str) 
 
 
 def _value(kind: str, v: Any) -> Any:
-    """A TOML value as a field of type ``kind`` (float, int, str or tuple[float, ...]); TypeError if it is not."""
+    """A TOML value as a field of type ``kind`` (float, int, str, bool or tuple[float, ...]); TypeError if not."""
     number = isinstance(v, (int, float)) and not isinstance(v, bool)
     if kind == "float" and number and not math.isnan(v):
         return float(v)
     if kind == "int" and number and isinstance(v, int) or kind == "str" and isinstance(v, str):
         return v
+    if kind == "bool" and isinstance(v, bool):
+        return v
     if kind.startswith("tuple") and isinstance(v, list):
         return tuple(_value("float", x) for x in v)
-    raise TypeError({"float": "a number", "int": "a whole number", "str": "a string"}.get(kind, "a list of numbers"))
+    raise TypeError({"float": "a number", "int": "a whole number", "str": "a string",
+                     "bool": "true or false"}.get(kind, "a list of numbers"))

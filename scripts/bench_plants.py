@@ -107,9 +107,12 @@ def run_one(plant: str, method: str, seed: int, mode: str, budget: int, n_prior:
         py = np.array([f if isinstance(f, float) else (f.value if f.value is not None else -1.0) for f in flights])
         n_prior_unsafe = int(np.sum(py < 0))
         prior = (pX, py)
+    from ksbo_mav.campaign.config import profile_defaults
+
     t0 = time.perf_counter()
+    # the profile's implied options (backup_beta where the backup covers the trials), as `ksbo-mav tune` applies
     r = ksbo_mav.optimize(obj, x0, bounds, budget=budget, method=method, seed=seed, prior=prior,
-                          y_max=1.0, **options)
+                          y_max=1.0, **{**profile_defaults(method, obj.profile), **options})
     wall = time.perf_counter() - t0
     judge = obj if hasattr(obj, "rms_ref") else type(obj)(plant=plant, monitor=monitor)  # fixed initial states
     P, counts = judge.expected_outcomes(r.x)

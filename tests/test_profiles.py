@@ -92,6 +92,8 @@ def test_unknown_keys_are_refused_naming_the_key_and_the_file(tmp_path, base, ol
     ("rate_hz = 50", "rate_hz = 30", ["rate_hz", "1000"]),
     ('type = "figure8-xz"', 'type = "circle"', ["circle", "figure8-ne"]),
     ('frame = "planar-xz"', 'frame = "hexa"', ["hexa", "quad-3d"]),
+    ("backup_covers_trials = false", "backup_covers_trials = 1", ["backup_covers_trials", "true or false"]),
+    ("laps = 2", "laps = 2\nlead_in_s = 1.0", ["lead_in_s", "figure8-ne"]),
 ])
 def test_bad_values_are_refused(tmp_path, old, new, words):
     path = _variant(tmp_path, "sim-planar", old, new)
@@ -126,3 +128,20 @@ def test_unknown_safety_override_is_refused():
 
     with pytest.raises(InputError, match="unknown safety override 'x_max'"):
         limits_from_profile(load_profile("sim-planar"), {"x_max": 0.5})
+
+
+def test_backup_coverage_implies_backup_exploration_for_ksbo_adaptive_only(tmp_path):
+    """Issue 13: the copter profiles (outer loops behind a lean-angle limit) let ksbo-adaptive explore beyond the
+    certified set; the planar task (attitude loop tuned) does not; the user's option wins either way."""
+    from ksbo_mav.campaign.config import BACKUP_BETA, optimizer_options, profile_defaults
+
+    planar, ap, px4 = (load_profile(n) for n in ("sim-planar", "ardupilot-copter", "px4-copter"))
+    assert not planar.safety.backup_covers_trials and ap.safety.backup_covers_trials and px4.safety.backup_covers_trials
+    assert profile_defaults("ksbo-adaptive", ap) == profile_defaults("ksbo-adaptive", px4) == {"backup_beta": BACKUP_BETA}
+    assert profile_defaults("ksbo-adaptive", planar) == {} and profile_defaults("ksbo", ap) == {}
+    assert profile_defaults("ksbo-adaptive", None) == {}
+    assert optimizer_options("local", {}, "ksbo-adaptive", ap)["backup_beta"] == BACKUP_BETA
+    assert optimizer_options("local", {"backup_beta": 2.0}, "ksbo-adaptive", ap)["backup_beta"] == 2.0
+    assert "backup_beta" not in optimizer_options("sim", {}, "ksbo-adaptive", planar)
+    flipped = _variant(tmp_path, "sim-planar", "backup_covers_trials = false", "backup_covers_trials = true")
+    assert profile_defaults("ksbo-adaptive", load_profile(flipped)) == {"backup_beta": BACKUP_BETA}

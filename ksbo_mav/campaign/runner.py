@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.campaign.access import check_identity, write_accepted
-from ksbo_mav.campaign.config import CampaignConfig, optimizer_options
+from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, profile_defaults
 from ksbo_mav.campaign.ending import end_flight, safe_stop
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.layout import CampaignDir
@@ -109,7 +109,7 @@ class Campaign:
             f"vehicle: sysid {v.identity.sysid}, {v.stack.name} {v.identity.firmware}"
             + (f", {v.gains.generation} parameter names" if v.gains.generation else ""),
             f"profile: {v.profile.name}; method {self.cfg.method}, {self.cfg.budget} trials "
-            f"(+ prior '{self._prior_kind()}'), seed {self.cfg.seed}",
+            f"(+ prior '{self._prior_kind()}'), seed {self.cfg.seed}" + _options_note(self.cfg, v.profile),
             "gains (profile name, vehicle name, current value, optimiser range):", *rows,
             flight_plan(v.profile, n_prior, self.cfg.budget, self.cfg.confirm, self.cfg.settle_s),
             f"at the end: {'write the best gains (accept)' if self.cfg.accept else 'restore the baseline'}, "
@@ -190,7 +190,8 @@ class Campaign:
         try:
             result = optimize(replay, x0, bounds, prior=prior, budget=self.cfg.budget, method=self.cfg.method,
                               seed=self.cfg.seed, p_min=0.0, check_x0=True,
-                              **optimizer_options(self._prior_kind(), self.cfg.options))
+                              **optimizer_options(self._prior_kind(), self.cfg.options, self.cfg.method,
+                                                  self.vehicle.profile))
         except UnsafeStartError:
             raise VehicleError(f"the baseline gains flew unsafe (P = {done[0].P:.3f} < 0): safe BO needs a safe "
                                "start; fix the gains or the mission/safety settings first (baseline restored)"
@@ -289,3 +290,11 @@ class Campaign:
             self.log(f"report plots failed: {exc}")
         fsync_write(self.dir.result, json.dumps(summary.to_dict(), indent=1))
         return summary
+
+
+def _options_note(cfg: CampaignConfig, profile: Any) -> str:
+    """The optimiser options that differ from the method's defaults (the profile's, then the user's)."""
+    implied = profile_defaults(cfg.method, profile)
+    parts = [f"{k}={v} (profile: the backup covers its trials)" for k, v in implied.items() if k not in cfg.options]
+    parts += [f"{k}={v}" for k, v in cfg.options.items()]
+    return f"; options {', '.join(parts)}" if parts else ""

@@ -25,7 +25,10 @@ def add_parser(subparsers) -> None:
     p.add_argument("--resume", metavar="DIR", help="continue the campaign in DIR (after a crash or battery swap)")
     add_connection_args(p)
     p.add_argument("--profile", help="vehicle profile (default: from the vehicle's identity)")
-    p.add_argument("--method", help="optimiser: ksbo (default), ksbo-adaptive, standard, safeopt, linebo, ...")
+    p.add_argument("--method", help="optimiser: ksbo-adaptive (default: safe BO that learns its safety scale, "
+                                    "treats aborted trials as censored, caps them at max_aborts and re-flies its "
+                                    "best candidates; on profiles whose backup covers the trials it also explores "
+                                    "beyond the certified set), ksbo (the paper's method), standard, safeopt, ...")
     p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30)")
     p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
     p.add_argument("--prior", choices=("auto", "sim", "local", "none"),

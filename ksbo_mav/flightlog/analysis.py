@@ -140,7 +140,7 @@ def analyse(log: FlightLog, mission=None, profile_name: str | None = None, parti
         entry: dict[str, Any] = {"segment": seg.index, "mode": seg.mode, "t_start_s": seg.t_start,
                                  "t_end_s": seg.t_end, "duration_s": seg.t_end - seg.t_start,
                                  "vs_target": error_stats(e), "figure8": None}
-        entry["figure8s"] = [figure8_entry(log, fit, mission, profile_name, rms_ref)
+        entry["figure8s"] = [figure8_entry(log, fit, fit.mission, profile_name, rms_ref)
                              for fit in recognise_figure8s(log, seg, mission)]
         entry["figure8"] = entry["figure8s"][0] if entry["figure8s"] else None  # the first, for short reports
         out.append(entry)
@@ -161,7 +161,7 @@ def figure8_entry(log: FlightLog, fit: Fit, mission, profile_name: str | None,
     return {"t0_s": fit.t0, "t_end_s": fit.t_end, "laps_flown": (fit.t_end - fit.t0) / T, "laps": laps,
             "offset_m": [float(x) for x in fit.offset], "fit_rms_m": fit.fit_rms, "marker": fit.marker,
             "mission": {"period_s": T, "north_m": mission.scale, "east_m": mission.scale2,
-                        "up_m": mission.center_up, "laps": mission.laps},
+                        "up_m": mission.center_up, "laps": mission.laps, "lead_in_s": mission.lead_in},
             "vs_target": error_stats(vs_target(log, fit.t0, fit.t_end)[1]),
             "vs_reference": error_stats(_vs_ref(log, fit, mission, fit.t0, fit.t_end)[1]),
             "profile": profile_name, "score": mission_score(log, fit, mission, rms_ref)}

@@ -4,7 +4,8 @@ constant offset -> where it was flown), or the exact start from a ksbo trial mar
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -25,21 +26,17 @@ class Fit:
     marker: str | None
     steps: int | None = None  # from a marker
     dt_ms: int | None = None
+    mission: Any = None  # the mission variant fitted: the profile's, or the same without its lead-in
 
 
 def reference(mission, t: np.ndarray, offset: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Analytic (pos, vel) NED at times ``t`` (s from the mission start)."""
     t = np.asarray(t, dtype=float)
-    p0, v0, _ = mission.setpoint_at(0.0)
     if mission.kind != "figure8-ne":  # generic (slow) path
         pv = [mission.setpoint_at(float(x))[:2] for x in t]
         return np.array([a for a, _ in pv]).reshape(-1, 3) + offset, np.array([b for _, b in pv]).reshape(-1, 3)
-    # Mission.setpoint_at, vectorised (checked against it in the tests)
-    w = 2 * math.pi / mission.period
-    A, B = mission.scale, mission.scale2
-    pos = np.column_stack([A * np.sin(w * t), B * np.sin(2 * w * t), np.full_like(t, p0[2])])
-    vel = np.column_stack([A * w * np.cos(w * t), 2 * B * w * np.cos(2 * w * t), np.zeros_like(t)])
-    return pos + offset, vel
+    f = mission.figure8h  # Mission.setpoint_at's reference, vectorised over t
+    return f.position(t) + offset, f.velocity(t)
 
 
 def recognise_figure8(log: FlightLog, seg: Segment, mission) -> Fit | None:
@@ -62,7 +59,7 @@ def recognise_figure8s(log: FlightLog, seg: Segment, mission) -> list[Fit]:
         if src is None:
             continue
         tg = src.window(seg.t_start, seg.t_end)
-        fits = [f for run in _moving_runs(tg, mission.period) if (f := _fit(tg, run, log, seg, mission))]
+        fits = [f for run in _moving_runs(tg, mission.period) if (f := _fit_either(tg, run, log, seg, mission))]
         if fits:
             return fits
     return []
@@ -91,6 +88,14 @@ def _moving_runs(tg: Track, period: float) -> list[tuple[float, float]]:
     return runs
 
 
+def _fit_either(tg: Track, run: tuple[float, float], log: FlightLog, seg: Segment, mission) -> Fit | None:
+    """The better fit of the profile's mission and, when it has a lead-in, the same pattern started at full speed
+    (the fact sheet's figure-8, flown by other tools or by ksbo before the lead-in)."""
+    variants = [mission] + ([replace(mission, lead_in=0.0)] if mission.lead_in > 0 else [])
+    fits = [f for m in variants if (f := _fit(tg, run, log, seg, m))]
+    return min(fits, key=lambda f: f.fit_rms) if fits else None
+
+
 def _fit(tg: Track, run: tuple[float, float], log: FlightLog, seg: Segment, mission) -> Fit | None:
     T, A, B = mission.period, mission.scale, mission.scale2
     w = 2 * math.pi / T
@@ -100,11 +105,14 @@ def _fit(tg: Track, run: tuple[float, float], log: FlightLog, seg: Segment, miss
     if marker is not None:
         t0 = marker[0]
     else:
-        X = np.column_stack([np.sin(w * t), np.cos(w * t), np.ones_like(t)])
-        cn, *_ = np.linalg.lstsq(X, pos[:, 0], rcond=None)
+        steady = t >= run[0] + mission.lead_in  # the lead-in is not a sinusoid in time
+        ts = t[steady] if steady.sum() >= 10 else t
+        X = np.column_stack([np.sin(w * ts), np.cos(w * ts), np.ones_like(ts)])
+        cn, *_ = np.linalg.lstsq(X, pos[steady if steady.sum() >= 10 else slice(None), 0], rcond=None)
         if abs(math.hypot(cn[0], cn[1]) - A) > AMP_TOL * A:
             return None
-        t0m = math.atan2(-cn[1], cn[0]) / w
+        # A lead-in of L s delays the pattern by L/2 (ksbo_sim.lead_in): the sinusoid's phase start is L/2 late.
+        t0m = math.atan2(-cn[1], cn[0]) / w - 0.5 * mission.lead_in
         t0 = t0m + T * round((run[0] - t0m) / T)
         # refine: least squares over the run (its edges, where the setpoints start or stop moving, left out),
         # coarse then fine grid around the phase estimate
@@ -127,7 +135,7 @@ def _fit(tg: Track, run: tuple[float, float], log: FlightLog, seg: Segment, miss
     if marker is not None and marker[1] is not None:
         t_end = min(t_end, t0 + marker[1] * marker[2] / 1000.0)
     return Fit(float(t0), t_end, offset, fit_rms, marker[3] if marker else None,
-               marker[1] if marker else None, marker[2] if marker else None)
+               marker[1] if marker else None, marker[2] if marker else None, mission)
 
 
 def _cost(mission, t, pos, t0) -> float:
@@ -138,12 +146,13 @@ def _cost(mission, t, pos, t0) -> float:
 
 
 def _marker_in(log: FlightLog, run: tuple[float, float], mission):
-    """The trial start marker whose t0 is where this run of moving targets begins (within 1 s)."""
+    """The trial start marker whose t0 is where this run of moving targets begins (within 1 s, plus the lead-in,
+    during which the targets start from rest)."""
     for m in log.markers:
         g = START_RE.match(m.text.strip())
         if g and g.group(1) == mission.tag:
             t0 = int(g.group(2)) / 1000.0
-            if run[0] - 1.0 <= t0 <= run[0] + 1.0:
+            if run[0] - 1.0 - mission.lead_in <= t0 <= run[0] + 1.0:
                 return t0, int(g.group(3)), int(g.group(4)), m.text
     return None
 

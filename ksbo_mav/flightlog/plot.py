@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +32,8 @@ def _series(log: FlightLog, seg: dict[str, Any], mission) -> dict[str, Any]:
     e = log.actual.at(tgt.t) - tgt.pos
     out["e_tgt_h"], out["e_tgt_v"] = np.hypot(e[:, 0], e[:, 1]), e[:, 2]
     if f8:
-        ref, _ = reference(mission, act.t - a, np.array(f8["offset_m"]))
+        fitted = replace(mission, lead_in=f8["mission"].get("lead_in_s", 0.0))  # the variant recognised
+        ref, _ = reference(fitted, act.t - a, np.array(f8["offset_m"]))
         out["ref"] = ref
         er = act.pos - ref
         out["e_ref_h"], out["e_ref_v"] = np.hypot(er[:, 0], er[:, 1]), er[:, 2]

@@ -7,7 +7,8 @@
   states [north, v_north, east, v_east, up, v_up]; scored by the lap-2 RMS tracking error e (m) relative to the
   campaign's baseline flight: ``P = 1 - e / (ratio * e_baseline)`` (:meth:`Mission.score`), so the baseline
   scores 0.5 on any vehicle and P < 0 means more than ``ratio`` (2) times worse; an early end scores
-  ``-(1 - (L/n)^2)`` like P(a).
+  ``-(1 - (L/n)^2)`` like P(a). With ``lead_in`` (the profile's ``lead_in_s``) the pattern starts from rest
+  (:mod:`ksbo_sim.lead_in`) instead of with a 3.5 m/s velocity step; the scored lap 2 is an ordinary lap.
 
 Setpoints carry position + velocity + acceleration (type_mask 0x0C00, frame LOCAL_NED): streamed feed-forward
 isolates the position loop from trajectory shaping (fact sheet 4.2). Holds use position-only targets (0x0DF8),
@@ -18,12 +19,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
 from ksbo_mav.profiles import Profile
 from ksbo_mav.scoring import ScoreConfig
+from ksbo_sim.copter3d.mission import Figure8H
 
 MASK_POS_VEL_ACC = 0x0C00
 MASK_POS = 0x0DF8
@@ -48,6 +51,7 @@ class Mission:
     laps: int
     rate_hz: int
     score_section: tuple[tuple[str, Any], ...] = ()
+    lead_in: float = 0.0  # s (figure8-ne): start from rest, ksbo_sim.lead_in
 
     @classmethod
     def from_profile(cls, profile: Profile) -> "Mission":
@@ -55,7 +59,7 @@ class Mission:
         m = profile.mission_spec
         east = m.scale_east_m if m.scale_east_m is not None else m.scale_m
         return cls(m.type, float(m.scale_m), float(east), float(m.period_s), float(m.center_up_m), int(m.laps),
-                   int(m.rate_hz), tuple(sorted(profile.score_spec.given().items())))
+                   int(m.rate_hz), tuple(sorted(profile.score_spec.given().items())), float(m.lead_in_s))
 
     @property
     def tag(self) -> str:
@@ -105,9 +109,17 @@ class Mission:
             return (np.array([A * s, 0.0, -(self.center_up + A * s * c)]),
                     np.array([A * w * c, 0.0, -(A * w * c2)]),
                     np.array([-A * w * w * s, 0.0, 2.0 * A * w * w * s2]))
-        B = self.scale2
-        return (np.array([A * s, B * s2, -self.center_up]), np.array([A * w * c, 2 * B * w * c2, 0.0]),
-                np.array([-A * w * w * s, -4 * B * w * w * s2, 0.0]))
+        f = self.figure8h
+        return f.position(t), f.velocity(t), f.acceleration(t)
+
+    @cached_property
+    def figure8h(self) -> Figure8H:
+        """The ``figure8-ne`` pattern as the simulator's :class:`Figure8H` (one implementation of the reference,
+        vectorised over time: ``position(t)``, ``velocity(t)``, ``acceleration(t)`` for t of any shape)."""
+        if self.kind != "figure8-ne":
+            raise ValueError(f"{self.kind} is not a figure8-ne mission")
+        return Figure8H(amp_north=self.scale, amp_east=self.scale2, period=self.period, altitude=self.center_up,
+                        laps=self.laps, rate_hz=float(self.rate_hz), lead_in=self.lead_in)
 
     # --- score -------------------------------------------------------------------------------------------
     def score(self, traj: Any, rms_ref: float | None = None) -> dict[str, Any]:

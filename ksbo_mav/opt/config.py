@@ -92,8 +92,10 @@ class AdaptiveConfig:
             backup covers: while the abort budget lasts, trials may leave the certified set if certified with
             ``backup_beta`` instead of ``beta``, inside the trust region, where the failure model predicts
             P(abort) ≤ ``abort_tol`` and P(crash) ≤ ``crash_tol``, and only until the first crash (the backup is
-            then known not to catch this plant's failures). (Off by default: on the planar suite the
-            failures are mostly fast pitch divergences the backup cannot catch — BENCHMARKS.md, issue 13.)
+            then known not to catch this plant's failures). Off by default: on the planar suite the failures are
+            mostly fast pitch divergences the backup cannot catch. A tuning campaign sets it (0.5) for vehicle
+            profiles that declare ``[safety] backup_covers_trials`` (outer loops clipped by a lean-angle limit;
+            ``ksbo_mav.campaign.config.profile_defaults``) — BENCHMARKS.md, issue 13.
         refly_last: the last this many evaluations (at most a tenth of the budget) re-fly the ``refly_top`` best
             completed points (by the recommendation's criterion, and the best single flight); the recommendation
             is then the best mean over each point's flights.

@@ -5,7 +5,9 @@ Reference (local NED, metres): north = A sin(wt), east = B sin(2wt), down = -alt
 defaults A = 10 m, B = 2.5 m, period 20 s, altitude 10 m: peak speed 3.1 m/s, peak acceleration 1.0 m/s^2
 (x) / 1.0 m/s^2 (y). The client streams pos+vel+acc setpoints from it (SET_POSITION_TARGET_LOCAL_NED type_mask
 0x0C00 = 3072, frame LOCAL_NED) at ``rate_hz``; the tracking error is the measured position minus the
-commanded position at the same time, and lap 2 (the steady state) is what is scored.
+commanded position at the same time, and lap 2 (the steady state) is what is scored. ``lead_in`` > 0 starts the
+pattern from rest (:mod:`ksbo_sim.lead_in`; the vehicle profiles' ``[mission] lead_in_s``), so a hovering
+vehicle does not see a 3.5 m/s velocity step.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ksbo_sim.lead_in import lead_in_phase
 from ksbo_sim.vehicle import Setpoint, VehicleModel
 
 #: SET_POSITION_TARGET_LOCAL_NED type_mask for position + velocity + acceleration (yaw and yaw rate ignored).
@@ -35,6 +38,7 @@ class Figure8H:
     laps: int = 2
     rate_hz: float = 50.0
     second_axis: int = 1  # 1: east (horizontal pattern, the mission); 2: down (fact sheet's x-z variant)
+    lead_in: float = 0.0  # s: start from rest (ksbo_sim.lead_in); 0 = the fact sheet's pattern from t = 0
 
     @property
     def omega(self) -> float:
@@ -46,26 +50,27 @@ class Figure8H:
 
     def position(self, t: np.ndarray | float) -> np.ndarray:
         """(*t.shape, 3) NED position in m."""
-        t = np.asarray(t, dtype=float)
-        w = self.omega
-        out = np.stack([self.amp_north * np.sin(w * t), np.zeros(t.shape), np.full(t.shape, -self.altitude)], -1)
-        out[..., self.second_axis] += self.amp_east * np.sin(2 * w * t)
-        return out
+        return self._pattern(lead_in_phase(t, self.lead_in)[0], 0)
 
     def velocity(self, t: np.ndarray | float) -> np.ndarray:
         """(*t.shape, 3) NED velocity in m/s."""
-        t = np.asarray(t, dtype=float)
-        w = self.omega
-        out = np.stack([self.amp_north * w * np.cos(w * t), np.zeros(t.shape), np.zeros(t.shape)], axis=-1)
-        out[..., self.second_axis] = 2 * w * self.amp_east * np.cos(2 * w * t)
-        return out
+        ph, rate, _ = lead_in_phase(t, self.lead_in)
+        return self._pattern(ph, 1) * rate[..., None]
 
     def acceleration(self, t: np.ndarray | float) -> np.ndarray:
         """(*t.shape, 3) NED acceleration in m/s^2."""
-        t = np.asarray(t, dtype=float)
+        ph, rate, rate_dot = lead_in_phase(t, self.lead_in)
+        return self._pattern(ph, 2) * (rate * rate)[..., None] + self._pattern(ph, 1) * rate_dot[..., None]
+
+    def _pattern(self, ph: np.ndarray, order: int) -> np.ndarray:
+        """(*ph.shape, 3) ``order``-th time derivative (0, 1, 2) of the unwarped pattern at phase ``ph`` (s)."""
         w = self.omega
-        out = np.stack([-self.amp_north * w * w * np.sin(w * t), np.zeros(t.shape), np.zeros(t.shape)], axis=-1)
-        out[..., self.second_axis] = -4 * w * w * self.amp_east * np.sin(2 * w * t)
+        out = np.zeros(ph.shape + (3,))
+        # d^k/dt^k sin(a t) = a^k sin(a t + k pi / 2)
+        out[..., 0] = self.amp_north * w**order * np.sin(w * ph + order * math.pi / 2)
+        if order == 0:
+            out[..., 2] = -self.altitude
+        out[..., self.second_axis] += self.amp_east * (2 * w) ** order * np.sin(2 * w * ph + order * math.pi / 2)
         return out
 
     def setpoint(self, t: float) -> Setpoint:
