@@ -36,8 +36,10 @@ def add_parser(subparsers) -> None:
                         "LHS around the baseline flown on the vehicle (local, default otherwise), or none")
     p.add_argument("--n-prior", type=int, metavar="N", help="prior size (default 36 sim / 8 local)")
     p.add_argument("--option", action="append", metavar="KEY=VALUE",
-                   help="optimiser option (repeatable; VALUE is JSON), e.g. --option backup_beta=0.5 lets "
-                        "ksbo-adaptive fly uncertified gains the monitor's backup covers (BENCHMARKS.md, issue 13)")
+                   help="optimiser option (repeatable; VALUE is JSON), e.g. --option max_aborts=4. The copter "
+                        "profiles ([safety] backup_covers_trials) give ksbo-adaptive backup_beta=0.5: it may fly "
+                        "uncertified gains the monitor's backup covers; --option backup_beta=null turns that off "
+                        "(BENCHMARKS.md, issue 13)")
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
     p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end")
     p.add_argument("--end", choices=("land", "hold"), default="land",
