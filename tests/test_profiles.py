@@ -137,7 +137,8 @@ def test_backup_coverage_implies_backup_exploration_for_ksbo_adaptive_only(tmp_p
 
     planar, ap, px4 = (load_profile(n) for n in ("sim-planar", "ardupilot-copter", "px4-copter"))
     assert not planar.safety.backup_covers_trials and ap.safety.backup_covers_trials and px4.safety.backup_covers_trials
-    assert profile_defaults("ksbo-adaptive", ap) == profile_defaults("ksbo-adaptive", px4) == {"backup_beta": BACKUP_BETA}
+    implied = {"backup_beta": BACKUP_BETA}
+    assert profile_defaults("ksbo-adaptive", ap) == profile_defaults("ksbo-adaptive", px4) == implied
     assert profile_defaults("ksbo-adaptive", planar) == {} and profile_defaults("ksbo", ap) == {}
     assert profile_defaults("ksbo-adaptive", None) == {}
     assert optimizer_options("local", {}, "ksbo-adaptive", ap)["backup_beta"] == BACKUP_BETA

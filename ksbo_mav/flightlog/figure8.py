@@ -106,9 +106,11 @@ def _fit(tg: Track, run: tuple[float, float], log: FlightLog, seg: Segment, miss
         t0 = marker[0]
     else:
         steady = t >= run[0] + mission.lead_in  # the lead-in is not a sinusoid in time
-        ts = t[steady] if steady.sum() >= 10 else t
+        if steady.sum() < 10:
+            steady[:] = True
+        ts = t[steady]
         X = np.column_stack([np.sin(w * ts), np.cos(w * ts), np.ones_like(ts)])
-        cn, *_ = np.linalg.lstsq(X, pos[steady if steady.sum() >= 10 else slice(None), 0], rcond=None)
+        cn, *_ = np.linalg.lstsq(X, pos[steady, 0], rcond=None)
         if abs(math.hypot(cn[0], cn[1]) - A) > AMP_TOL * A:
             return None
         # A lead-in of L s delays the pattern by L/2 (ksbo_sim.lead_in): the sinusoid's phase start is L/2 late.
