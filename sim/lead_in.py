@@ -19,12 +19,13 @@ import numpy as np
 def lead_in_phase(t: np.ndarray | float, T: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Phase φ, rate φ' and its derivative φ'' at times ``t`` (any shape, s) for a lead-in of ``T`` s (0: none).
 
-    The warped reference is then pos = f(φ), vel = f'(φ) φ', acc = f''(φ) φ'² + f'(φ) φ''. Times before 0 are
-    clamped to 0 (the vehicle holds the start point).
+    The warped reference is then pos = f(φ), vel = f'(φ) φ', acc = f''(φ) φ'² + f'(φ) φ''. With a lead-in, times
+    before 0 are clamped to 0 (the vehicle holds the start point, at rest); without one, φ = t everywhere.
     """
-    t = np.maximum(np.asarray(t, dtype=float), 0.0)
+    t = np.asarray(t, dtype=float)
     if T <= 0:
         return t, np.ones_like(t), np.zeros_like(t)
+    t = np.maximum(t, 0.0)
     u = np.minimum(t / T, 1.0)
     inside = t < T
     phase = np.where(inside, T * (u**3 - 0.5 * u**4), t - 0.5 * T)

@@ -102,15 +102,15 @@ class Mission:
 
     def setpoint_at(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(pos, vel, acc) NED of the reference ``t`` seconds after the start."""
+        if self.kind == "figure8-ne":
+            return self.figure8h.state(t)
+        # figure8-xz: x = A sin wt, z = z0 + A sin wt cos wt = z0 + A/2 sin 2wt (ksbo_sim.Figure8)
         w = 2.0 * math.pi / self.period
         s, c, s2, c2 = math.sin(w * t), math.cos(w * t), math.sin(2 * w * t), math.cos(2 * w * t)
         A = self.scale
-        if self.kind == "figure8-xz":  # x = A sin wt, z = z0 + A sin wt cos wt = z0 + A/2 sin 2wt (ksbo_sim.Figure8)
-            return (np.array([A * s, 0.0, -(self.center_up + A * s * c)]),
-                    np.array([A * w * c, 0.0, -(A * w * c2)]),
-                    np.array([-A * w * w * s, 0.0, 2.0 * A * w * w * s2]))
-        f = self.figure8h
-        return f.position(t), f.velocity(t), f.acceleration(t)
+        return (np.array([A * s, 0.0, -(self.center_up + A * s * c)]),
+                np.array([A * w * c, 0.0, -(A * w * c2)]),
+                np.array([-A * w * w * s, 0.0, 2.0 * A * w * w * s2]))
 
     @cached_property
     def figure8h(self) -> Figure8H:

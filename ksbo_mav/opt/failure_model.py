@@ -100,3 +100,8 @@ class FailureModel:
         p_abort = (a + w @ self.failed.astype(float)) / (a + b + sw)
         p_crash = (c + w @ self.crashed.astype(float)) / (c + e + sw)
         return p_abort, p_crash
+
+    def acceptable(self, Z: np.ndarray, abort_tol: float, crash_tol: float) -> np.ndarray:
+        """(m,) bool: Z (m, d) predicted to abort with probability ≤ ``abort_tol`` and crash with ≤ ``crash_tol``."""
+        p_abort, p_crash = self.predict(Z)
+        return (p_abort <= abort_tol) & (p_crash <= crash_tol)

@@ -71,7 +71,6 @@ def fallback_index(bo: "SafeBO", lcb_d: np.ndarray) -> int:
     inside = np.all(bo.X[:, ~bo.free] == bo.x0[~bo.free], axis=1) & bo.complete
     if bo.failures is not None and not bo.complete.all() and inside.any():
         # A trial that completed once may abort the next time (bistable gains on a random start); x0 stays allowed.
-        p_abort, p_crash = bo.failures.predict(bo.X)
-        ok = (p_abort <= bo.adaptive.abort_tol) & (p_crash <= bo.adaptive.crash_tol)
+        ok = bo.failures.acceptable(bo.X, bo.adaptive.abort_tol, bo.adaptive.crash_tol)
         inside &= ok | np.all(bo.X == bo.x0, axis=1)
     return int(np.argmax(np.where(inside, lcb_d, -np.inf))) if inside.any() else int(np.argmax(lcb_d))

@@ -232,9 +232,7 @@ class SafeBO:
         if self.tr is not None and ok.any():
             ok &= self.tr.contains(Z)
         if self.failures is not None and (self.relaxed or not self.complete.all()) and ok.any():
-            p_abort, p_crash = self.failures.predict(Z[ok])
-            idx = np.flatnonzero(ok)
-            ok[idx[(p_abort > self.adaptive.abort_tol) | (p_crash > self.adaptive.crash_tol)]] = False
+            ok[ok] = self.failures.acceptable(Z[ok], self.adaptive.abort_tol, self.adaptive.crash_tol)
         return ok
 
     # -- the step -----------------------------------------------------------------------------------------------

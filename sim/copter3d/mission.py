@@ -54,13 +54,19 @@ class Figure8H:
 
     def velocity(self, t: np.ndarray | float) -> np.ndarray:
         """(*t.shape, 3) NED velocity in m/s."""
-        ph, rate, _ = lead_in_phase(t, self.lead_in)
-        return self._pattern(ph, 1) * rate[..., None]
+        return self.state(t)[1]
 
     def acceleration(self, t: np.ndarray | float) -> np.ndarray:
         """(*t.shape, 3) NED acceleration in m/s^2."""
+        return self.state(t)[2]
+
+    def state(self, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(position, velocity, acceleration), each (*t.shape, 3), with the lead-in's phase computed once (the
+        setpoint stream asks for all three at every step)."""
         ph, rate, rate_dot = lead_in_phase(t, self.lead_in)
-        return self._pattern(ph, 2) * (rate * rate)[..., None] + self._pattern(ph, 1) * rate_dot[..., None]
+        d1 = self._pattern(ph, 1)
+        return (self._pattern(ph, 0), d1 * rate[..., None],
+                self._pattern(ph, 2) * (rate * rate)[..., None] + d1 * rate_dot[..., None])
 
     def _pattern(self, ph: np.ndarray, order: int) -> np.ndarray:
         """(*ph.shape, 3) ``order``-th time derivative (0, 1, 2) of the unwarped pattern at phase ``ph`` (s)."""
@@ -75,7 +81,8 @@ class Figure8H:
 
     def setpoint(self, t: float) -> Setpoint:
         """The pos+vel+acc setpoint to send at mission time t."""
-        return Setpoint(pos=self.position(t), vel=self.velocity(t), acc=self.acceleration(t))
+        pos, vel, acc = self.state(t)
+        return Setpoint(pos=pos, vel=vel, acc=acc)
 
     def start(self) -> np.ndarray:
         """(3,) where the vehicle should hover before the stream starts (the crossing point)."""
