@@ -15,7 +15,11 @@ link latency (~10-20 ms of sim time at 10x, ~0.05 m of along-track shift at 3 m/
 For the campaign trials the tolerance is tighter — 0.02 m on the lap-2 RMS and 0.02 on P — because the start time
 is exact: ArduPilot logs the tuner's STATUSTEXT trial markers in the .BIN (MSG "SRC=245/191:ksbo f8h start
 t0=..."), the campaign reference RMS included; for PX4 (which does not log a ground station's STATUSTEXT) the start
-is recovered from trajectory_setpoint and the reference RMS is passed as `--rms-ref`, as a user would.
+is recovered from trajectory_setpoint and the reference RMS is passed as `--rms-ref`, as a user would. PX4 logs a
+setpoint when it arrives, so on a busy machine the recovered start can lag the tuner's by the link latency (up to
+25 ms of sim time is accepted); a trial that tracks with a large along-track lag (the SITL baseline: ~1.4 m) then
+scores differently by up to the pattern's peak speed times that shift, which the PX4 trial tolerance adds (CI once
+measured 0.026 m on a 1.38 m trial; on an idle machine the two agree to 1e-4 m).
 """
 
 from __future__ import annotations
@@ -174,9 +178,24 @@ def test_campaign_trials_ulg_score_equals_live_tlog_score(px4_sitl, tmp_path, ca
     ulg = _complete_log(px4_sitl, ".ulg")
     ref = recs[0]["score"]["rms_lap2_m"]  # the campaign's baseline
     result = _score(capsys, ulg, "--rms-ref", str(ref))
+    v_peak = _peak_speed("px4-copter")
     for rec in recs:
         f8 = _match(result, rec["trajectory"]["t0_ms"])
         live, onboard = rec["score"], f8["score"]
-        assert f8["t0_s"] * 1000 == pytest.approx(rec["trajectory"]["t0_ms"], abs=25)
-        assert onboard["rms_lap2_m"] == pytest.approx(live["rms_lap2_m"], abs=TOL_TRIAL_M)
-        assert onboard["P"] == pytest.approx(live["P"], abs=TOL_TRIAL_P)
+        shift_s = abs(f8["t0_s"] - rec["trajectory"]["t0_ms"] / 1000)
+        assert shift_s <= 0.025
+        tol_m = TOL_TRIAL_M + v_peak * shift_s  # what the recovered start's shift alone can move the lap RMS
+        assert onboard["rms_lap2_m"] == pytest.approx(live["rms_lap2_m"], abs=tol_m)
+        assert onboard["P"] == pytest.approx(live["P"], abs=TOL_TRIAL_P + v_peak * shift_s / (2 * ref))
+
+
+def _peak_speed(profile: str) -> float:
+    """Peak speed (m/s) of the profile's figure-8, lead-in included."""
+    import numpy as np
+
+    from ksbo_mav.mav.mission import Mission
+    from ksbo_mav.profiles import load_profile
+
+    mission = Mission.from_profile(load_profile(profile))
+    t = np.linspace(0.0, mission.period * mission.laps, 4000)
+    return float(np.linalg.norm(mission.figure8h.velocity(t), axis=-1).max())

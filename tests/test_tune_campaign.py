@@ -175,3 +175,37 @@ def test_pilot_mode_change_is_journalled_as_failed_not_as_a_gain_point(tmp_path)
         entries = _journal(d)
         assert [e["kind"] for e in entries] == ["failed"] and entries[0]["outcome"] == "pilot"
         assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+
+
+@pytest.mark.timeout(180)
+def test_resume_flies_the_stored_profile_file_and_refuses_a_changed_box_or_mission(tmp_path, capsys):
+    """A campaign started with ``--profile FILE`` resumes with that file; if the file's search box or mission
+    changed since (an edited profile, a newer ksbo-mav), its journalled trials would not be comparable: one clear
+    line, nothing flown or journalled."""
+    from ksbo_mav.profiles import load_profile
+    from importlib import resources
+
+    src = resources.files("ksbo_params").joinpath("sim-planar.toml").read_text()
+    prof = tmp_path / "mine.toml"
+    prof.write_text(src)
+    d = tmp_path / "camp"
+    with sim_and_endpoint() as (sim, ep):
+        cfg = CampaignConfig(dir=str(d), profile=str(prof), budget=2, seed=0, prior="none", confirm=0, end="hold")
+        Campaign(cfg, ep, log=lambda s: None).run()
+        saved = json.loads((d / "campaign.json").read_text())
+        assert saved["mission"]["kind"] == "figure8-xz" and saved["mission"]["period"] == 6.0
+        n = len(_journal(d))
+        args = ["tune", "--resume", str(d), "--udp", f"127.0.0.1:{ep.port}"]
+        assert main(args) == 0  # unchanged file: resumes (nothing left to fly)
+        capsys.readouterr()
+        assert len(_journal(d)) == n
+        for old, new, word in (("max_step_fraction = 0.5", "max_step_fraction = 0.4", "search box"),
+                               ("period_s = 6.0", "period_s = 7.0", "mission period 6.0 -> 7.0")):
+            assert old in src
+            prof.write_text(src.replace(old, new))
+            load_profile(prof)  # a valid profile, only a different one
+            assert main(args) == 2
+            err = capsys.readouterr().err.strip()  # (tune's progress display may leave an empty line before it)
+            assert err.startswith("error: ") and "\n" not in err and word in err and "changed since" in err
+            assert len(_journal(d)) == n
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)

@@ -24,9 +24,9 @@ from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.plan import flight_plan
 from ksbo_mav.campaign.prior import campaign_prior
 from ksbo_mav.campaign.replay import JournalReplay
+from ksbo_mav.campaign.resume import check_unchanged, opt_bounds
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
 from ksbo_mav.errors import InputError, KsboError, UnsafeStartError, VehicleError
-from ksbo_mav.mav.gains import trust_region
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.objective import MavlinkObjective, TrialStopped
 from ksbo_mav.mav.snapshot import fsync_write, load_snapshot, write_snapshot
@@ -36,12 +36,6 @@ from ksbo_mav.opt.outcome import Evaluation
 
 #: How often a trial spoiled by this computer or the link (TrialOutcome.retry) is flown again.
 RETRIES = 2
-
-
-def opt_bounds(profile: Any, x0: np.ndarray) -> np.ndarray:
-    """(d, 2) profile box intersected with the trust region around the baseline (see :func:`trust_region`)."""
-    lo, hi = trust_region(profile, x0)
-    return np.stack([lo, hi], axis=1)
 
 
 class Campaign:
@@ -62,7 +56,8 @@ class Campaign:
 
     # --- setup -----------------------------------------------------------------------------------------------
     def _connect(self) -> Vehicle:
-        profile = self.dir.read_settings()["profile"] if self.resume else self.cfg.profile
+        # A resume loads the profile the campaign was started with: the file it named, else the detected one.
+        profile = (self.cfg.profile or self.dir.read_settings()["profile"]) if self.resume else self.cfg.profile
         self.vehicle = Vehicle.connect(self.endpoint, profile, sysid=self.cfg.sysid, compid=self.cfg.compid,
                                        timeout=self.connect_timeout, log=self.log)
         return self.vehicle
@@ -95,6 +90,7 @@ class Campaign:
         self.log(f"snapshot written: {snap.path.with_suffix('')}.{{param,params,json}}")
         self.dir.write_settings({"config": self.cfg.to_dict(), "profile": v.profile.name, "baseline": base,
                                  "x0": x0.tolist(), "bounds": opt_bounds(v.profile, x0).tolist(),
+                                 "mission": v.mission.to_dict(),
                                  "identity": v.identity.to_dict(), "created_unix": time.time()})
 
     def plan(self, base: dict[str, float]) -> str:
@@ -202,6 +198,8 @@ class Campaign:
     # --- the whole campaign ----------------------------------------------------------------------------------
     def dry_run(self) -> str:
         """Connect, print the plan, change nothing (and write nothing)."""
+        if self.resume:
+            check_unchanged(self.dir, self.cfg.profile, self.log)
         v = self._connect()
         try:
             return self.plan(self._baseline_values(v) if not self.resume else load_snapshot(self.dir.root).baseline())
@@ -214,6 +212,8 @@ class Campaign:
         if not self.resume and self.dir.exists():
             raise InputError(f"{self.dir.root} already holds a campaign; use --resume {self.dir.root} or another "
                              "directory")
+        if self.resume:
+            check_unchanged(self.dir, self.cfg.profile, self.log)
         v = self._connect()
         base: dict[str, float] | None = None
         try:

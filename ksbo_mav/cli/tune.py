@@ -22,7 +22,8 @@ def add_parser(subparsers) -> None:
                     "Every option is checked before anything is connected or written; --dry-run prints the "
                     "flight plan (airspace, flights, batteries) and changes nothing.")
     p.add_argument("dir", nargs="?", metavar="DIR", help="campaign directory (new)")
-    p.add_argument("--resume", metavar="DIR", help="continue the campaign in DIR (after a crash or battery swap)")
+    p.add_argument("--resume", metavar="DIR", help="continue the campaign in DIR (after a crash or battery swap) with "
+                   "its stored settings; refused if its profile now gives another search box or mission")
     add_connection_args(p)
     p.add_argument("--profile", help="vehicle profile (default: from the vehicle's identity)")
     p.add_argument("--method", help="optimiser: ksbo-adaptive (default: safe BO that learns its safety scale, "

@@ -17,6 +17,7 @@ which never time out on the vehicle (fact sheet 4.1 pitfall).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -60,6 +61,12 @@ class Mission:
         east = m.scale_east_m if m.scale_east_m is not None else m.scale_m
         return cls(m.type, float(m.scale_m), float(east), float(m.period_s), float(m.center_up_m), int(m.laps),
                    int(m.rate_hz), tuple(sorted(profile.score_spec.given().items())), float(m.lead_in_s))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly fields (stored with a campaign, so that a resume flies the same pattern)."""
+        d = dataclasses.asdict(self)
+        d["score_section"] = [list(kv) for kv in self.score_section]
+        return d
 
     @property
     def tag(self) -> str:
