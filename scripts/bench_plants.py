@@ -65,16 +65,18 @@ def _objective(plant: str, seed: int, monitor: bool) -> tuple[Any, np.ndarray, n
 SITL_PLANTS = {"sitl-ardupilot": "ardupilot", "sitl-px4": "px4"}
 
 
-def run_sitl(plant: str, method: str, seed: int, budget: int, options: dict[str, Any]) -> dict[str, Any]:
+def run_sitl(plant: str, method: str, seed: int, budget: int, options: dict[str, Any], n_prior: int = 0
+             ) -> dict[str, Any]:
     """One campaign on a SITL: E[P] is the recommendation's mean lap-2 RMS over its 3 re-flights against the
-    baseline's mean over 3 re-flights after the campaign, on the campaign's own scale P = 1 − RMS / (2 RMS_base)."""
+    baseline's mean over 3 re-flights after the campaign, on the campaign's own scale P = 1 − RMS / (2 RMS_base).
+    ``n_prior`` > 0: `tune --prior local --n-prior n_prior` (flown around the baseline before the optimiser)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from bench_sitl_campaign import run_one as sitl_campaign
 
     row = sitl_campaign(SITL_PLANTS[plant], seed, budget, instance=7, method=method,
-                        options=[f"{k}={json.dumps(v)}" for k, v in options.items()])
+                        options=[f"{k}={json.dumps(v)}" for k, v in options.items()], n_prior=n_prior)
     rec: dict[str, Any] = {"plant": plant, "method": method, "seed": seed, "mode": "monitor", "budget": budget,
-                           "n_prior": 0, "options": options, "sitl": row}
+                           "n_prior": n_prior, "options": options, "sitl": row}
     if "error" in row:
         return {**rec, "EP": float("nan"), "error": row["error"], "reflown_counts": [0, 0, 0], "n_unsafe": 0,
                 "n_aborted": 0, "n_crashed": 0, "s_per_iter": 0.0, "wall_s": row["wall_s"], "nfev": 0}
@@ -89,9 +91,9 @@ def run_sitl(plant: str, method: str, seed: int, budget: int, options: dict[str,
 
 
 def run_one(plant: str, method: str, seed: int, mode: str, budget: int, n_prior: int,
-            options: dict[str, Any]) -> dict[str, Any]:
-    if plant in SITL_PLANTS:
-        return run_sitl(plant, method, seed, budget, options)
+            options: dict[str, Any], local_prior: bool = False) -> dict[str, Any]:
+    if plant in SITL_PLANTS:  # a SITL prior is always the campaign's local one
+        return run_sitl(plant, method, seed, budget, options, n_prior)
     import ksbo_mav
     from scipy.stats import qmc
 
@@ -101,8 +103,12 @@ def run_one(plant: str, method: str, seed: int, mode: str, budget: int, n_prior:
     n_prior_unsafe = 0
     if n_prior:
         lo, hi = bounds[:, 0], bounds[:, 1]
-        U = qmc.LatinHypercube(d=len(lo), seed=seed).random(n_prior)
-        pX = lo + U * (hi - lo)
+        if local_prior:  # what `ksbo-mav tune --prior local` flies: around the baseline
+            from ksbo_mav.campaign.prior import local_prior_design
+
+            pX = local_prior_design(n_prior, x0, bounds, seed)
+        else:  # the paper setting: over the whole box
+            pX = lo + qmc.LatinHypercube(d=len(lo), seed=seed).random(n_prior) * (hi - lo)
         flights = [obj(x) for x in pX]
         py = np.array([f if isinstance(f, float) else (f.value if f.value is not None else -1.0) for f in flights])
         n_prior_unsafe = int(np.sum(py < 0))
@@ -119,7 +125,8 @@ def run_one(plant: str, method: str, seed: int, mode: str, budget: int, n_prior:
     props = r.info.get("proposals", [])
     rec = {
         "plant": plant, "method": method, "seed": seed, "mode": mode, "budget": budget, "n_prior": n_prior,
-        "options": options, "EP": float(P[0]), "reflown_counts": counts[0].tolist(), "x": r.x.tolist(),
+        "local_prior": local_prior, "options": options, "EP": float(P[0]), "reflown_counts": counts[0].tolist(),
+        "x": r.x.tolist(),
         "nfev": r.nfev, "n_unsafe": r.n_unsafe, "n_aborted": r.n_aborted, "n_crashed": r.n_crashed,
         "n_prior_unsafe": n_prior_unsafe, "s_per_iter": float(np.mean(r.seconds[1:])) if r.nfev > 1 else 0.0,
         "s_per_iter_last20": float(np.mean(r.seconds[-20:])) if r.nfev > 20 else None,
@@ -146,7 +153,7 @@ def cmd_run(a: argparse.Namespace) -> None:
     for plant in a.plants.split(","):
         for method in a.methods.split(","):
             for seed in _seeds(a.seeds):
-                rec = run_one(plant, method, seed, a.mode, a.budget, a.prior, _opt(a.opt or []))
+                rec = run_one(plant, method, seed, a.mode, a.budget, a.prior, _opt(a.opt or []), a.local_prior)
                 rec["tag"] = a.tag
                 with out.open("a") as fh:
                     fh.write(json.dumps(rec) + "\n")
@@ -205,7 +212,10 @@ def report(recs: list[dict]) -> str:
     keys = sorted({(r["tag"] or "", r["mode"], r["method"], r["n_prior"], r["budget"]) for r in recs})
     lines = []
     for tag, mode, method, n_prior, budget in keys:
-        setting = f"{mode}, {'%d LHS + ' % n_prior if n_prior else 'from a0, '}{budget} flights" + \
+        local = any((r.get("local_prior") or r["plant"] in SITL_PLANTS) for r in recs
+                    if (r["tag"] or "", r["n_prior"], r["budget"]) == (tag, n_prior, budget))
+        design = "%d LHS around the baseline (`tune --prior local`) + " if local else "%d LHS + "
+        setting = f"{mode}, {design % n_prior if n_prior else 'from a0, '}{budget} flights" + \
                   (f", {tag}" if tag else "")
         lines += [f"**{method}** — {setting}", "",
                   "| plant | seeds | re-flown E[P] median [min, max] | % of best known | seeds 0 crashes "
@@ -246,6 +256,8 @@ def main(argv: list[str] | None = None) -> None:
     r.add_argument("--mode", choices=("monitor", "strict"), default="monitor")
     r.add_argument("--budget", type=int, default=100)
     r.add_argument("--prior", type=int, default=0, help="LHS prior flights (the paper setting: 36)")
+    r.add_argument("--local-prior", action="store_true",
+                   help="the prior is `tune --prior local`'s design (around the baseline), not the whole box")
     r.add_argument("--opt", action="append", help="optimizer option key=JSON value")
     r.add_argument("--tag", default="")
     r.add_argument("--out", default="bench-runs/plants.jsonl")

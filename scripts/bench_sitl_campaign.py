@@ -73,7 +73,9 @@ def changed_params(sitl, d: Path) -> list[str]:
 
 
 def run_one(kind: str, seed: int, budget: int, instance: int, method: str = "ksbo",
-            options: list[str] | None = None) -> dict:
+            options: list[str] | None = None, n_prior: int = 0) -> dict:
+    """One campaign; ``n_prior`` > 0 flies that many local-LHS prior trials first (`--prior local`), else
+    `--prior none`."""
     work = Path(tempfile.mkdtemp(prefix=f"bench-sitl-{kind}-{seed}-"))
     sitl = start_sitl(kind, instance=instance, speedup=SPEED[kind], workdir=work / "sitl")
     try:
@@ -81,9 +83,10 @@ def run_one(kind: str, seed: int, budget: int, instance: int, method: str = "ksb
             sitl.set_param("COM_RCL_EXCEPT", 4, int32=True)  # no RC in SITL: allow OFFBOARD without it
         args, _ = endpoint(sitl)
         d = work / "campaign"
+        prior = ["--prior", "local", "--n-prior", str(n_prior)] if n_prior else ["--prior", "none"]
         t0 = time.time()
         r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *args, "--budget", str(budget),
-                            "--seed", str(seed), "--method", method, "--prior", "none", "--confirm", "3",
+                            "--seed", str(seed), "--method", method, *prior, "--confirm", "3",
                             "--end", "hold", "--json", *[f"--option={o}" for o in options or []]],
                            capture_output=True, text=True, timeout=3600)
         wall = time.time() - t0
@@ -95,7 +98,8 @@ def run_one(kind: str, seed: int, budget: int, instance: int, method: str = "ksb
         confirm = [v for v in flown if v is not None]  # a confirm flight the monitor aborted has no RMS
         base = reflown_baseline(sitl, d, 3)
         changed = changed_params(sitl, d)
-        return {"kind": kind, "seed": seed, "method": method, "options": options or [], "wall_s": wall,
+        return {"kind": kind, "seed": seed, "method": method, "options": options or [], "n_prior": n_prior,
+                "wall_s": wall,
                 "trials": len(recs),
                 "wall_per_trial_s": statistics.median(x["wall_s"] for x in recs),
                 "baseline_rms": statistics.mean(base),

@@ -146,3 +146,19 @@ def test_backup_coverage_implies_backup_exploration_for_ksbo_adaptive_only(tmp_p
     assert "backup_beta" not in optimizer_options("sim", {}, "ksbo-adaptive", planar)
     flipped = _variant(tmp_path, "sim-planar", "backup_covers_trials = false", "backup_covers_trials = true")
     assert profile_defaults("ksbo-adaptive", load_profile(flipped)) == {"backup_beta": BACKUP_BETA}
+
+
+def test_px4_search_box_reaches_the_position_gain_that_halves_the_sitl_error():
+    """Issue 13: on PX4 SITL MPC_XY_P 1.9 alone (2x the 0.95 default) takes the lap-2 RMS from ~1.4 m to ~0.73 m;
+    the default search box (profile box ∩ trust region around the defaults) must reach it, and the trust region
+    still caps every gain at twice / half its default."""
+    import numpy as np
+
+    from ksbo_mav.campaign.resume import opt_bounds
+
+    px4 = load_profile("px4-copter")
+    box = opt_bounds(px4, np.asarray(px4.default, dtype=float))
+    i = px4.names.index("MPC_XY_P")
+    assert box[i, 1] == pytest.approx(1.9, rel=1e-6)
+    assert np.all(box[:, 1] <= 2 * np.asarray(px4.default) * (1 + 1e-9))
+    assert np.all(box[:, 0] >= np.asarray(px4.default) / 2 * (1 - 1e-9))

@@ -38,9 +38,23 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
         log(f"prior: {n} simulator episodes around the baseline (in process, nothing flown)")
         return X, y
     n = cfg.n_prior or 8
-    X = lo + lhs_design(n, len(x0), "local", center=u0, radius=0.1, seed=cfg.seed) * (hi - lo)
+    X = local_prior_design(n, x0, bounds, cfg.seed)
     y = list(flown)
     for k in range(len(y), n):
         log(f"prior trial {k + 1}/{n} (local LHS around the baseline)")
         y.append(fly(X[k]))
     return X, np.array(y)
+
+
+#: Half-width (unit cube of the optimiser box) of the flown local prior around the baseline.
+LOCAL_PRIOR_RADIUS = 0.1
+
+
+def local_prior_design(n: int, x0: np.ndarray, bounds: np.ndarray, seed: int) -> np.ndarray:
+    """(n, d) gains of the flown local prior (``--prior local``): a Latin hypercube within
+    :data:`LOCAL_PRIOR_RADIUS` of the baseline ``x0`` (d,) in the optimiser box ``bounds`` (d, 2)."""
+    from ksbo_mav.select.design import lhs_design
+
+    lo, hi = bounds[:, 0], bounds[:, 1]
+    u0 = (x0 - lo) / (hi - lo)
+    return lo + lhs_design(n, len(x0), "local", center=u0, radius=LOCAL_PRIOR_RADIUS, seed=seed) * (hi - lo)
