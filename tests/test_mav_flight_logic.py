@@ -120,6 +120,23 @@ def test_recorder_reads_reference_marker_and_counts_lost_packets():
     assert rec.rms_ref == pytest.approx(0.234567) and rec.lost == 2
 
 
+def test_lost_samples_are_filled_inside_and_held_at_the_ends_of_a_trial():
+    """A sample lost at a trial's first or last step has one neighbour: it is held (CI once aborted a lossy-link
+    trial as "telemetry too sparse" for one lost last ATTITUDE); inside, short gaps are interpolated; a gap longer
+    than MAX_GAP stays missing wherever it is."""
+    from ksbo_mav.mav.trajectory import MAX_GAP, _fill
+
+    col = np.column_stack([np.arange(12.0), -np.arange(12.0)])
+    col[[0, 4, 5, 11]] = np.nan
+    assert _fill(col) == 4
+    np.testing.assert_allclose(col[:, 0], [1, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 10])
+    long = np.column_stack([np.arange(20.0)])
+    long[: MAX_GAP + 1] = np.nan
+    long[-3:] = np.nan
+    assert _fill(long) == 3 and np.isnan(long[: MAX_GAP + 1]).all() and (long[-3:] == 16).all()
+    assert _fill(np.full((3, 2), np.nan)) == 0
+
+
 def test_a_trip_right_after_the_stream_stalled_is_blamed_on_the_client():
     from ksbo_mav.mav.objective import STALL_MS, _lag_stats, _stall_before
 

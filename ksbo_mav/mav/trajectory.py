@@ -14,8 +14,8 @@ forward or ignore it, and other ground stations on the link see what the tuner i
 Pairing (fact sheet / scoring module): the state after control step k is the telemetry sample stamped
 ``t0 + (k+1)*dt`` (the nearest step for a jittery stream), compared with the logged setpoint the client sent in
 answer to that sample, stamped with the sample's time (the reference at that instant). Samples lost
-on the link are filled by linear interpolation across gaps of at most :data:`MAX_GAP` steps; longer gaps stay
-missing and make the scored window incomplete.
+on the link are filled by linear interpolation across gaps of at most :data:`MAX_GAP` steps (at the trial's first
+or last step, by holding the nearest sample); longer gaps stay missing and make the scored window incomplete.
 """
 
 from __future__ import annotations
@@ -193,7 +193,8 @@ def _column(d: dict[int, np.ndarray], t0: int, dt: int, L: int, width: int) -> n
 
 
 def _fill(col: np.ndarray) -> int:
-    """Linear interpolation over interior NaN runs of length <= MAX_GAP (in place); returns samples filled."""
+    """Fill NaN runs of length <= MAX_GAP (in place): linear interpolation inside the trial, the nearest sample
+    held at its first or last step (a packet lost there has only one neighbour); returns samples filled."""
     bad = np.isnan(col[:, 0])
     if not bad.any():
         return 0
@@ -207,9 +208,12 @@ def _fill(col: np.ndarray) -> int:
         j = i
         while j < n and bad[j]:
             j += 1
-        if i > 0 and j < n and j - i <= MAX_GAP and idx.size:
-            w = (np.arange(i, j) - (i - 1)) / (j - (i - 1))
-            col[i:j] = col[i - 1] + w[:, None] * (col[j] - col[i - 1])
+        if j - i <= MAX_GAP and idx.size:
+            if i > 0 and j < n:
+                w = (np.arange(i, j) - (i - 1)) / (j - (i - 1))
+                col[i:j] = col[i - 1] + w[:, None] * (col[j] - col[i - 1])
+            else:
+                col[i:j] = col[j] if i == 0 else col[i - 1]
             filled += j - i
         i = j
     return filled
