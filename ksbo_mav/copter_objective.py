@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from ksbo_mav.mav.gains import trust_region
+from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.opt.outcome import Evaluation, Outcome
@@ -55,8 +55,7 @@ class CopterObjective:
         self.limits = limits_from_profile(self.profile)
         self.ratio = float(self.profile.score_spec.unsafe_rms_ratio)
         self.baseline = np.asarray(self.profile.default, dtype=float)
-        lo, hi = trust_region(self.profile, self.baseline)
-        self.bounds = np.column_stack([lo, hi])
+        self.bounds = opt_bounds(self.profile, self.baseline)
         self.n_flights = 0
         self.rms_ref = math.nan
         base = self.flight(self.baseline)

@@ -154,7 +154,7 @@ def test_px4_search_box_reaches_the_position_gain_that_halves_the_sitl_error():
     still caps every gain at twice / half its default."""
     import numpy as np
 
-    from ksbo_mav.campaign.resume import opt_bounds
+    from ksbo_mav.mav.gains import opt_bounds
 
     px4 = load_profile("px4-copter")
     box = opt_bounds(px4, np.asarray(px4.default, dtype=float))

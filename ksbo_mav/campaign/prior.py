@@ -21,10 +21,6 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
     (a resumed campaign flies only the rest, through ``fly``)."""
     if kind == "none":
         return None
-    from ksbo_mav.select.design import lhs_design
-
-    lo, hi = bounds[:, 0], bounds[:, 1]
-    u0 = (x0 - lo) / (hi - lo)
     if kind == "sim":
         if d.prior.exists():
             doc = json.loads(d.prior.read_text())
@@ -32,7 +28,7 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
         from ksbo_mav.objective import SimObjective
 
         n = cfg.n_prior or 36
-        X = lo + lhs_design(n, len(x0), "local", center=u0, radius=0.25, seed=cfg.seed) * (hi - lo)
+        X = local_prior_design(n, x0, bounds, cfg.seed, radius=SIM_PRIOR_RADIUS)
         y = SimObjective(profile, seed=cfg.seed).batch(X)
         fsync_write(d.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist()}))
         log(f"prior: {n} simulator episodes around the baseline (in process, nothing flown)")
@@ -46,15 +42,18 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
     return X, np.array(y)
 
 
-#: Half-width (unit cube of the optimiser box) of the flown local prior around the baseline.
+#: Half-widths (unit cube of the optimiser box) of the priors around the baseline: flown (``--prior local``) and
+#: simulated (``--prior sim``, free, so it may range wider).
 LOCAL_PRIOR_RADIUS = 0.1
+SIM_PRIOR_RADIUS = 0.25
 
 
-def local_prior_design(n: int, x0: np.ndarray, bounds: np.ndarray, seed: int) -> np.ndarray:
-    """(n, d) gains of the flown local prior (``--prior local``): a Latin hypercube within
-    :data:`LOCAL_PRIOR_RADIUS` of the baseline ``x0`` (d,) in the optimiser box ``bounds`` (d, 2)."""
+def local_prior_design(n: int, x0: np.ndarray, bounds: np.ndarray, seed: int,
+                       radius: float = LOCAL_PRIOR_RADIUS) -> np.ndarray:
+    """(n, d) prior gains: a Latin hypercube within ``radius`` of the baseline ``x0`` (d,) in the optimiser box
+    ``bounds`` (d, 2); by default the flown local prior (``--prior local``)."""
     from ksbo_mav.select.design import lhs_design
 
     lo, hi = bounds[:, 0], bounds[:, 1]
     u0 = (x0 - lo) / (hi - lo)
-    return lo + lhs_design(n, len(x0), "local", center=u0, radius=LOCAL_PRIOR_RADIUS, seed=seed) * (hi - lo)
+    return lo + lhs_design(n, len(x0), "local", center=u0, radius=radius, seed=seed) * (hi - lo)

@@ -5,21 +5,14 @@ across such a change would mix trials of two different problems in one optimiser
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.errors import InputError
-from ksbo_mav.mav.gains import trust_region
+from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.profiles import load_profile
-
-
-def opt_bounds(profile: Any, x0: np.ndarray) -> np.ndarray:
-    """(d, 2) profile box intersected with the trust region around the baseline (see :func:`trust_region`)."""
-    lo, hi = trust_region(profile, x0)
-    return np.stack([lo, hi], axis=1)
 
 
 def check_unchanged(d: CampaignDir, profile_ref: str | None, log: Callable[[str], None]) -> None:

@@ -24,9 +24,10 @@ from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.plan import flight_plan
 from ksbo_mav.campaign.prior import campaign_prior
 from ksbo_mav.campaign.replay import JournalReplay
-from ksbo_mav.campaign.resume import check_unchanged, opt_bounds
+from ksbo_mav.campaign.resume import check_unchanged
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
 from ksbo_mav.errors import InputError, KsboError, UnsafeStartError, VehicleError
+from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.objective import MavlinkObjective, TrialStopped
 from ksbo_mav.mav.snapshot import fsync_write, load_snapshot, write_snapshot

@@ -30,6 +30,12 @@ def trust_region(profile: Profile, baseline: np.ndarray) -> tuple[np.ndarray, np
     return lo, hi
 
 
+def opt_bounds(profile: Profile, baseline: np.ndarray) -> np.ndarray:
+    """(d, 2) the optimiser's search box: :func:`trust_region` around ``baseline`` as [lo, hi] rows."""
+    lo, hi = trust_region(profile, baseline)
+    return np.column_stack([lo, hi])
+
+
 class Gains:
     """The profile's gains on one vehicle (``map`` translates gain vectors to vehicle parameters)."""
 

@@ -17,9 +17,8 @@ which never time out on the vehicle (fact sheet 4.1 pitfall).
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from functools import cached_property
 from typing import Any
 
@@ -64,7 +63,7 @@ class Mission:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly fields (stored with a campaign, so that a resume flies the same pattern)."""
-        d = dataclasses.asdict(self)
+        d = asdict(self)
         d["score_section"] = [list(kv) for kv in self.score_section]
         return d
 
