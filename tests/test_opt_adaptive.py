@@ -164,6 +164,35 @@ def test_recommendation_refies_top_candidates_and_rejects_a_bistable_one() -> No
     assert refly_choice(bo, cands) == 0
 
 
+def test_after_a_failure_the_recommendation_weighs_each_candidates_failures() -> None:
+    """B flew 0.95 twice but failed once when re-flown; A flew 0.8 four times and nobody failed near it. Ranked by
+    the mean over its completed flights B would win; by expected score under the failure model A does. Control:
+    the same flights with B's failure completed keep B."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.recommend import expected_value, final_choice
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    A, B = np.array([0.2, 0.3]), np.array([0.7, 0.7])
+
+    def run(b_fails: bool) -> tuple[SafeBO, int]:
+        model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
+        bo = SafeBO(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
+                    np.random.default_rng(0), adaptive=AdaptiveConfig(censor_aborts=True, refly_top=1))
+        bo.fit(np.array([A, B]), np.array([0.8, 0.95]))
+        for x, y in ((A, 0.8), (A, 0.81), (A, 0.79), (B, 0.95)):
+            bo.observe(x, y)
+        bo.observe(B, -1.0 if b_fails else 0.95, Outcome.ABORTED if b_fails else Outcome.COMPLETE)
+        bo.refly_set = np.array([1])  # the re-fly phase chose B
+        return bo, final_choice(bo)[0]
+
+    bo, i = run(b_fails=True)
+    assert np.array_equal(bo.X[i], A)
+    assert expected_value(bo, 1) < expected_value(bo, 0) < 0.8  # both discounted, B (1 failure in 3) far more
+    bo, i = run(b_fails=False)
+    assert np.array_equal(bo.X[i], B)
+
+
 def test_refly_phase_takes_the_last_evaluations() -> None:
     r = ksbo_mav.optimize(bump(0.2), np.array([0.5, 0.4]), BOX2, budget=20, method="ksbo-adaptive", seed=0,
                           refly_last=10, refly_top=2, orders=(1,), n_local=256, y_max=1.0)
@@ -273,3 +302,116 @@ def test_backup_is_trusted_only_until_it_fails_to_recover() -> None:
         p = bo.propose()
         assert not p.kind.endswith("/backup") and (p.kind == "fallback" or p.lcb >= bo.p_min)
         bo.observe(p.x, 0.3)
+
+
+def test_exclusion_balls_grow_when_failures_cluster_and_stay_fixed_otherwise() -> None:
+    """A second failure just outside the first one's ball (0.07 from it, radius 0.05) doubles both balls; a
+    failure far away keeps its own base ball; growth 1 (the paper method) keeps every ball at the base radius."""
+    from ksbo_mav.opt.region import exclusion_radii
+
+    bad = np.array([[0.5, 0.5], [0.57, 0.5], [0.1, 0.9]])
+    np.testing.assert_allclose(exclusion_radii(bad, 0.05, 2.0, 0.2), [0.1, 0.1, 0.05])
+    np.testing.assert_allclose(exclusion_radii(bad, 0.05, 1.0, 0.2), [0.05] * 3)
+    # a tight cluster: growth stops at the cap
+    cluster = np.array([[0.5, 0.5], [0.55, 0.5], [0.5, 0.55], [0.55, 0.55], [0.45, 0.5]])
+    assert exclusion_radii(cluster, 0.05, 2.0, 0.2).max() == pytest.approx(0.2)
+
+
+def test_no_query_and_no_fallback_inside_a_grown_exclusion_ball() -> None:
+    """After two clustered aborts, the state machine certifies nothing within the grown (0.1) ball of either,
+    although the main GP never saw them (censored); the point 0.07 from the first abort was allowed before."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.region import excluded
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    model = SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.3, signal_std=1.0, noise_std=0.01), 2)
+    bo = SafeBO(model, SafeBOConfig(n_local=256, n_global=64, exclusion_radius=0.05), np.ones(2, bool),
+                np.random.default_rng(0),
+                adaptive=AdaptiveConfig(censor_aborts=True, exclusion_growth=2.0, exclusion_max=0.2))
+    X = np.array([[0.3, 0.3], [0.35, 0.3], [0.3, 0.35], [0.4, 0.4], [0.45, 0.45]])
+    bo.fit(X, np.array([0.5, 0.55, 0.55, 0.6, 0.65]))
+    f1, f2, probe = np.array([0.5, 0.5]), np.array([0.57, 0.5]), np.array([[0.43, 0.5]])
+    bo.observe(f1, -1.0, Outcome.ABORTED)
+    assert not excluded(bo, probe)[0]  # 0.07 from f1: outside its 0.05 ball
+    bo.observe(f2, -1.0, Outcome.ABORTED)
+    assert excluded(bo, probe)[0] and not bo.safe_mask(probe)[0]
+    for _ in range(5):
+        p = bo.propose()
+        assert min(np.linalg.norm(p.x - f1), np.linalg.norm(p.x - f2)) >= 0.1 - 1e-12
+        bo.observe(p.x, 0.6)
+
+
+def test_a_failure_at_new_gains_shrinks_the_learnt_safety_scale_a_failed_reflight_does_not() -> None:
+    """The SE-ARD GP here has orders (d,), so it is the scale model; its ML-II lengthscales are multiplied by
+    ``failure_scale_shrink`` per failure at new gains (the certified region shrinks), not for a failed re-flight."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    rng = np.random.default_rng(1)
+    X = 0.4 + 0.2 * rng.random((12, 2))
+    y = 0.5 + 0.3 * np.sin(3 * X[:, 0]) * np.cos(2 * X[:, 1])
+
+    def state(shrink: float) -> SafeBO:
+        model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
+        bo = SafeBO(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
+                    adaptive=AdaptiveConfig(censor_aborts=True, learn_safety_scale=True,
+                                            failure_scale_shrink=shrink))
+        bo.fit(X, y)
+        return bo
+
+    bo, ref = state(0.5), state(1.0)
+    base = np.asarray(bo.model.spec.lengthscale, float)
+    np.testing.assert_allclose(base, ref.model.spec.lengthscale)
+    for b in (bo, ref):
+        b.observe(np.array([0.7, 0.7]), -1.0, Outcome.CRASHED)  # new gains
+    np.testing.assert_allclose(bo.model.spec.lengthscale, np.maximum(0.5 * base, 0.01))
+    np.testing.assert_allclose(ref.model.spec.lengthscale, base)
+    bo.observe(X[3], -1.0, Outcome.ABORTED)  # a re-flight of flown gains: no new information on the scale
+    np.testing.assert_allclose(bo.model.spec.lengthscale, np.maximum(0.5 * base, 0.01))
+    assert bo.scale_factor == 0.5
+
+
+def test_a_refly_candidate_that_fails_is_not_flown_again() -> None:
+    """Re-fly phase of 6 flights over 2 candidates: B aborts at its first re-flight, so the rest go to A."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.recommend import next_refly
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    A, B = np.array([0.2, 0.3]), np.array([0.7, 0.7])
+    model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
+    bo = SafeBO(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
+                np.random.default_rng(0), adaptive=AdaptiveConfig(censor_aborts=True, refly_top=2))
+    bo.fit(np.array([A, B]), np.array([0.8, 0.95]))
+    bo.refly_set = np.array([1, 0])
+    flown = []
+    for k in range(6):
+        i = next_refly(bo, k)
+        flown.append("A" if np.array_equal(bo.X[i], A) else "B")
+        bad = flown[-1] == "B"
+        bo.observe(bo.X[i], -1.0 if bad else 0.8, Outcome.ABORTED if bad else Outcome.COMPLETE)
+    assert flown == ["B", "A", "A", "A", "A", "A"]
+
+
+def test_when_every_refly_candidate_failed_the_best_point_clear_of_failures_is_flown() -> None:
+    """Only B is a candidate and it aborts: the next re-flights go to A (4 clean flights, far from B), which
+    joins the re-flown set; the final choice is A."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.recommend import final_choice, next_refly
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    A, B = np.array([0.2, 0.3]), np.array([0.7, 0.7])
+    model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
+    bo = SafeBO(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
+                np.random.default_rng(0), adaptive=AdaptiveConfig(censor_aborts=True, refly_top=1))
+    bo.fit(np.array([A, A, A, A, B]), np.array([0.8, 0.8, 0.8, 0.8, 0.95]))
+    bo.refly_set = np.array([4])
+    assert np.array_equal(bo.X[next_refly(bo, 0)], B)
+    bo.observe(B, -1.0, Outcome.ABORTED)
+    i = next_refly(bo, 1)
+    assert np.array_equal(bo.X[i], A) and i in bo.refly_set
+    bo.observe(A, 0.8)
+    assert np.array_equal(bo.X[final_choice(bo)[0]], A)

@@ -98,9 +98,15 @@ class AdaptiveConfig:
             ``ksbo_mav.campaign.config.profile_defaults``) — BENCHMARKS.md, issue 13.
         refly_last: the last this many evaluations (at most a tenth of the budget) re-fly the ``refly_top`` best
             completed points (by the recommendation's criterion, and the best single flight); the recommendation
-            is then the best mean over each point's flights.
+            is then the best mean over each point's flights (once any trial failed: the best expected score under
+            the failure model, and a candidate that failed is not re-flown; opt.recommend).
         reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
             by marginal likelihood (Algorithm 1 stays the first selection); 0 = never.
+        exclusion_growth, exclusion_max: the exclusion ball (``exclusion_radius``) of a bad trial grows
+            ×``exclusion_growth`` (up to ``exclusion_max``) each time a later bad trial lands within twice its
+            radius (opt.region.exclusion_radii); 1 = fixed balls. Fallbacks then avoid the balls too.
+        failure_scale_shrink: each trial at new gains that aborts or crashes multiplies the learnt safety
+            lengthscales by this (a certified point failed: the GP claimed too much smoothness); 1 = off.
     """
 
     censor_aborts: bool = False
@@ -123,12 +129,16 @@ class AdaptiveConfig:
     refly_last: int = 0
     refly_top: int = 3
     reselect_every: int = 0
+    exclusion_growth: float = 1.0
+    exclusion_max: float = 0.2
+    failure_scale_shrink: float = 1.0
 
     @property
     def enabled(self) -> bool:
         """Whether any adaptive mechanism is on (off = the paper's strict safe BO, bit for bit)."""
         return (self.censor_aborts or self.learn_safety_scale or self.trust_region or self.max_aborts is not None
-                or self.backup_beta is not None or self.refly_last > 0 or self.reselect_every > 0)
+                or self.backup_beta is not None or self.refly_last > 0 or self.reselect_every > 0
+                or self.exclusion_growth > 1.0 or self.failure_scale_shrink < 1.0)
 
 
 @dataclass(frozen=True)

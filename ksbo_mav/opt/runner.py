@@ -6,8 +6,8 @@
   trial could be guaranteed not to abort); the recommendation is made from the data.
 * Re-fly phase (``refly_last`` > 0): the last evaluations re-fly the ``refly_top`` best completed points (by the
   recommendation's criterion) in turn; the recommendation is then the candidate with the best mean over all its
-  flights, an aborted flight counting with its recorded value (below p_min). Bistable gains that flew well once
-  rarely survive this.
+  flights (once any trial failed: by expected score under the failure model, opt.recommend). A candidate that
+  fails is not re-flown again. Bistable gains that flew well once rarely survive this.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import Callable
 
 from ksbo_mav.opt.problem import Problem
-from ksbo_mav.opt.recommend import refly_candidates, refly_count
+from ksbo_mav.opt.recommend import next_refly, refly_candidates, refly_count
 from ksbo_mav.opt.safe_bo import Proposal, SafeBO
 
 
@@ -41,7 +41,7 @@ def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
             if bo.refly_set is None:
                 bo.refly_set = refly_candidates(bo)
             k = n_refly - problem.remaining
-            i = int(bo.refly_set[k % len(bo.refly_set)])
+            i = next_refly(bo, k)
             p = Proposal(bo.X[i].copy(), "refly", float("nan"), float("nan"), float("nan"))
         else:
             p = bo.propose()

@@ -78,6 +78,8 @@ class SafeBO:
     failures: FailureModel | None = field(default=None, init=False)
     scale_history: list[list[float]] = field(default_factory=list, init=False)  # learnt (d,) lengthscales
     refly_set: np.ndarray | None = field(default=None, init=False)  # (k,) data indices re-flown (opt.runner)
+    scale_factor: float = field(default=1.0, init=False)  # learnt safety scale × this (shrinks on new failures)
+    ml_scale: np.ndarray | None = field(default=None, init=False)  # (d,) last marginal-likelihood lengthscales
 
     def __post_init__(self) -> None:
         if self.config.rule not in RULES:
@@ -125,14 +127,17 @@ class SafeBO:
             if m is not None:
                 m.fit(Xc, yc)
         target = self._scale_model()
+        a = self.adaptive
         if learn and target is not None and yc.size >= 2:
-            start = np.broadcast_to(np.asarray(target.spec.lengthscale, dtype=float), (self.model.dim,))
-            a = self.adaptive
+            start = np.broadcast_to(np.asarray(target.spec.lengthscale if self.ml_scale is None else self.ml_scale,
+                                               dtype=float), (self.model.dim,))
             # Warm start: once a few fits exist, the previous optimum is the only start (no random restart).
             restarts = 1 if len(self.scale_history) < 4 * a.scale_refit_every else 0
-            ls = learn_lengthscales(Xc, yc - self.p_min, target.signal_std, target.noise_std, start,
-                                    a.safety_scale_prior, a.safety_scale_bounds, self.rng, a.scale_extent_factor,
-                                    restarts)
+            self.ml_scale = learn_lengthscales(Xc, yc - self.p_min, target.signal_std, target.noise_std, start,
+                                               a.safety_scale_prior, a.safety_scale_bounds, self.rng,
+                                               a.scale_extent_factor, restarts)
+        if target is not None and self.ml_scale is not None and (learn or self.scale_factor < 1.0):
+            ls = np.maximum(self.ml_scale * self.scale_factor, a.safety_scale_bounds[0])
             target.spec = target.spec.with_(lengthscale=tuple(float(v) for v in ls))
             target.fit(Xc, yc)
             self.scale_history.append([float(v) for v in ls])
@@ -159,6 +164,11 @@ class SafeBO:
         """
         self.iteration += 1
         done = outcome is Outcome.COMPLETE
+        # A failure at new gains that the safety GP had certified (or the backup covered): the learnt scale
+        # claimed too much smoothness here, so it shrinks (re-flights of flown gains say nothing about the scale).
+        novel = not bool(np.all(self.X == np.asarray(x, float).reshape(1, -1), axis=1).any())
+        if not done and novel and self.adaptive.failure_scale_shrink < 1.0:
+            self.scale_factor *= self.adaptive.failure_scale_shrink
         best_before = float(np.max(self.y[self.complete], initial=-np.inf))
         self.X = np.vstack([self.X, np.asarray(x, float).reshape(1, -1)])
         self.y = np.append(self.y, float(y))
@@ -170,7 +180,8 @@ class SafeBO:
         every = max(a.scale_refit_every, self.y.size // 20) if a.scale_refit_every > 0 else 0
         learn = a.learn_safety_scale and every > 0 and (self.iteration <= 4 * a.scale_refit_every
                                                          or self.iteration % every == 0)
-        if learn or (k and self.iteration % k == 0) or (not done and self.failures is not None):
+        if learn or (k and self.iteration % k == 0) or (not done and (self.failures is not None
+                                                                      or a.failure_scale_shrink < 1.0)):
             self._refit(learn=learn)
         elif done or not a.censor_aborts:
             for m in (self.model, self.safety_model):
@@ -223,12 +234,8 @@ class SafeBO:
         nearby); with a trust region also inside it, and — once trials have aborted, or while :attr:`relaxed` —
         predicted by the failure model to abort and crash rarely enough (censored aborts steer the search)."""
         ok = lcb >= self.p_min
-        r = self.config.exclusion_radius
-        bad = self.X[(self.y < self.p_min) | ~self.complete]
-        if r > 0 and bad.shape[0] and ok.any():
-            d2 = ((Z[ok, None, :] - bad[None, :, :]) ** 2).sum(-1).min(axis=1)
-            idx = np.flatnonzero(ok)
-            ok[idx[d2 < r * r]] = False
+        if ok.any():
+            ok[ok] = ~region.excluded(self, Z[ok])
         if self.tr is not None and ok.any():
             ok &= self.tr.contains(Z)
         if self.failures is not None and (self.relaxed or not self.complete.all()) and ok.any():
