@@ -86,8 +86,11 @@ def test_campaign_with_accept_leaves_best_gains(tmp_path):
 def test_sigint_mid_campaign_restores_baseline(tmp_path):
     d = tmp_path / "camp"
     with sim_and_endpoint() as (sim, ep):
+        # Ctrl-C's default action in the child even when pytest runs as a background job (a shell starts those
+        # with SIGINT ignored, the child would inherit that and never see the signal).
         proc = subprocess.Popen(_tune_cmd(d, ep.port, "--budget", "30"), stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
+                                stderr=subprocess.PIPE, text=True,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         try:
             _wait_journal(d, 2, proc)
             time.sleep(0.5)  # well inside the next trial
