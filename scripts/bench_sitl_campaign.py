@@ -19,7 +19,11 @@ import subprocess
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
+
+import numpy as np
 
 os.environ.setdefault("MAVLINK20", "1")
 
@@ -43,20 +47,26 @@ def endpoint(sitl, second: bool = False) -> tuple[list[str], Endpoint]:
     return ["--udp", f"127.0.0.1:{sitl.udp_port}"], Endpoint("udp", "127.0.0.1", sitl.udp_port)
 
 
-def reflown_baseline(sitl, d: Path, n: int) -> list[float]:
-    """Fly the baseline gains ``n`` times on the vehicle (hovering after the campaign), then land."""
+@contextmanager
+def campaign_vehicle(sitl, d: Path, out: str) -> Iterator[tuple[MavlinkObjective, np.ndarray]]:
+    """The vehicle the campaign in ``d`` left hovering: the tuner's own objective (flights written to ``d / out``,
+    restoring the snapshot's baseline) and the baseline gain vector x0 (d,). Lands when the block ends normally."""
     _, ep = endpoint(sitl)
     snap = load_snapshot(d)
     v = Vehicle.connect(ep, snap.profile)
     try:
         v.setup_streams()
         base = snap.baseline()
-        obj = MavlinkObjective(v, base, d / "baseline-reflights", first_index=0)
-        rms = [obj.fly(v.gains.from_vehicle(base), label="baseline").score["rms_lap2_m"] for _ in range(n)]
+        yield MavlinkObjective(v, base, d / out, first_index=0), v.gains.from_vehicle(base)
         v.land()
-        return rms
     finally:
         v.close()
+
+
+def reflown_baseline(sitl, d: Path, n: int) -> list[float]:
+    """Fly the baseline gains ``n`` times on the vehicle (hovering after the campaign), then land."""
+    with campaign_vehicle(sitl, d, "baseline-reflights") as (obj, x0):
+        return [obj.fly(x0, label="baseline").score["rms_lap2_m"] for _ in range(n)]
 
 
 def changed_params(sitl, d: Path) -> list[str]:

@@ -19,11 +19,8 @@ from pathlib import Path
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_sitl_campaign import endpoint  # noqa: E402
+from bench_sitl_campaign import campaign_vehicle, endpoint  # noqa: E402
 
-from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402
-from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
-from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
 from ksbo_sim.sitl import start_sitl  # noqa: E402
 
 
@@ -37,18 +34,12 @@ def main() -> None:
     sitl = start_sitl("px4", instance=8, speedup=a.speedup, workdir=work / "sitl")
     try:
         sitl.set_param("COM_RCL_EXCEPT", 4, int32=True)  # no RC in SITL: allow OFFBOARD without it
-        args, ep = endpoint(sitl)
+        args, _ = endpoint(sitl)
         d = work / "campaign"
         subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *args, "--budget", "1", "--method",
                         "ksbo", "--prior", "none", "--confirm", "0", "--end", "hold", "--json"],
                        capture_output=True, text=True, timeout=1800, check=True)
-        snap = load_snapshot(d)
-        v = Vehicle.connect(ep, snap.profile)
-        try:
-            v.setup_streams()
-            base = snap.baseline()
-            obj = MavlinkObjective(v, base, d / "fixed", first_index=0)
-            x0 = v.gains.from_vehicle(base)
+        with campaign_vehicle(sitl, d, "fixed") as (obj, x0):
             for name, changes in json.loads(a.variants).items():
                 x = x0.copy()
                 for i, val in changes.items():
@@ -57,9 +48,6 @@ def main() -> None:
                 print(json.dumps({"variant": name, "x": x.round(4).tolist(), "speedup": a.speedup,
                                   "rms_lap2_m": [f.score.get("rms_lap2_m") for f in flights],
                                   "outcome": [str(f.outcome) for f in flights]}), flush=True)
-            v.land()
-        finally:
-            v.close()
     finally:
         sitl.stop()
 
