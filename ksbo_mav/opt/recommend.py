@@ -130,9 +130,9 @@ def next_refly(bo: "SafeBO", k: int) -> int:
 
 
 def refly_choice(bo: "SafeBO", cands: np.ndarray) -> int:
-    """Data index of the candidate with the best mean over every flight at exactly that point."""
-    means = [float(np.mean(bo.y[np.all(bo.X == bo.X[i], axis=1)])) for i in cands]
-    return int(cands[int(np.argmax(means))])
+    """Data index of the candidate with the best :func:`expected_value` (while no trial failed: the best mean over
+    every flight at exactly that point; the first of equals)."""
+    return max((int(c) for c in cands), key=lambda k: expected_value(bo, k))
 
 
 def expected_value(bo: "SafeBO", i: int) -> float:
@@ -177,13 +177,10 @@ def final_choice(bo: "SafeBO") -> tuple[int, float, float]:
     cands = bo.refly_set
     if cands is None or len(cands) == 0:
         return i, mu, lcb
+    pool = np.asarray(cands, dtype=int)
     if failed:
-        pool = [int(c) for c in cands] + [i]
         clear = clear_choice(bo)
-        if clear is not None:
-            pool.append(clear)
-        j = max(pool, key=lambda k: expected_value(bo, k))
-    else:
-        j = refly_choice(bo, cands)
+        pool = np.append(pool, [i] + ([clear] if clear is not None else []))
+    j = refly_choice(bo, pool)
     m, l_ = bo.smoothed()
     return j, float(m[j]), float(l_[j])
