@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import ksbo_mav
-from ksbo_mav.opt.failure_model import FailureModel, learn_lengthscales
+from ksbo_mav.opt.failure_model import FailureModel, learn_lengthscales, learn_scales
 from ksbo_mav.opt.outcome import Evaluation, Outcome
 from ksbo_mav.opt.trust_region import TrustRegion
 
@@ -58,6 +58,22 @@ def test_learn_lengthscales_is_capped_by_the_data_extent() -> None:
     assert np.all(ls <= 2.0 * (X.max(0) - X.min(0)) + 1e-12)
     wide = learn_lengthscales(X, np.full(6, 0.5), 1.0, 0.01, np.full(3, 0.05), extent_factor=None)
     assert np.all(wide > ls)  # without the cap, a flat function claims long scales from a tiny cluster
+
+
+def test_learnt_noise_explains_flight_scatter_instead_of_short_scales() -> None:
+    """Scatter of 0.05 on a smooth function: with the noise fixed at 0.012 the fit explains it with short
+    lengthscales (the safe set would stop growing); learnt (``safety_noise_max``) the noise comes out near 0.05,
+    never below the fixed floor, and the lengthscales are long again."""
+    rng = np.random.default_rng(0)
+    X = 0.4 + 0.2 * rng.random((30, 3))
+    g = 0.3 + 0.3 * np.sin(4 * X[:, 0]) + 0.05 * rng.standard_normal(30)
+    ls_fixed, n_fixed = learn_scales(X, g, 0.6, 0.012, np.full(3, 0.01), extent_factor=None)
+    ls, noise = learn_scales(X, g, 0.6, 0.012, np.full(3, 0.01), extent_factor=None, noise_max=0.15)
+    assert n_fixed == 0.012 and 0.03 < noise < 0.08
+    assert np.min(ls) > 2 * np.min(ls_fixed)
+    quiet = 0.3 + 0.3 * np.sin(4 * X[:, 0])  # no scatter: the noise stays at its floor
+    assert learn_scales(X, quiet, 0.6, 0.012, np.full(3, 0.01), extent_factor=None, noise_max=0.15)[1] == \
+        pytest.approx(0.012, rel=0.05)
 
 
 def test_trust_region_grows_after_successes_and_shrinks_after_an_abort() -> None:
@@ -415,3 +431,93 @@ def test_when_every_refly_candidate_failed_the_best_point_clear_of_failures_is_f
     assert np.array_equal(bo.X[i], A) and i in bo.refly_set
     bo.observe(A, 0.8)
     assert np.array_equal(bo.X[final_choice(bo)[0]], A)
+
+
+def test_ard_acquisition_stops_paying_for_uncertainty_along_flat_dimensions() -> None:
+    """``ard_acquisition``: the UCB's GP takes the learnt safety lengthscales where they are longer than the main
+    GP's, so a step along a dimension the data show to be flat earns less UCB than the same step along the one that
+    matters; the safety bound (LCB) is the main and safety GPs' and does not change."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    rng = np.random.default_rng(3)
+    X = 0.3 + 0.4 * rng.random((40, 3))
+    y = 0.4 + 0.3 * np.sin(15 * X[:, 0])  # only x0 matters
+
+    def state(ard: float) -> SafeBO:
+        spec = ModelSpec(orders=(1, 2), lengthscale=0.1, signal_std=1.0, noise_std=0.01)
+        safety = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.05, signal_std=1.0, noise_std=0.01), 3)
+        bo = SafeBO(SafetyModel(spec, 3), SafeBOConfig(), np.ones(3, bool), np.random.default_rng(0),
+                    safety_model=safety, adaptive=AdaptiveConfig(learn_safety_scale=True, ard_acquisition=ard))
+        bo.fit(X, y)
+        return bo
+
+    bo, ref = state(1.0), state(0.0)
+    assert ref.acq_model is None
+    ls = np.asarray(bo.acq_model.spec.lengthscale)
+    assert np.all(ls >= 0.1) and np.all(ls[1:] > 3 * ls[0])  # flat dimensions stretched far more than x0
+    Z = np.array([[0.5, 0.5, 0.5]] * 3) + 0.35 * np.eye(3)  # the same step out of the data along each axis
+    _, sd, lcb, up = bo.bounds(Z)
+    _, _, lcb_ref, up_ref = ref.bounds(Z)
+    np.testing.assert_allclose(lcb, lcb_ref)
+    np.testing.assert_allclose(sd, sd[0], rtol=0.2)  # the main GP's uncertainty: the same along every axis ...
+    _, sd_acq = bo.acq_model.predict(Z)
+    assert np.all(sd_acq[1:] < 0.5 * sd_acq[0])  # ... the acquisition GP's: small along the flat ones
+    mu_acq, _ = bo.acq_model.predict(Z)
+    np.testing.assert_allclose(up, mu_acq + bo.config.beta_ucb * sd_acq)  # and the UCB is the acquisition GP's
+    x_new = np.array([0.45, 0.55, 0.5])
+    bo.observe(x_new, 0.4 + 0.3 * np.sin(15 * 0.45))  # the acquisition GP takes new data like the others
+    assert bo.acq_model.n == bo.model.n == 41
+
+
+def test_safety_gp_takes_the_learnt_noise_and_keeps_its_floor() -> None:
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    rng = np.random.default_rng(0)
+    X = 0.4 + 0.2 * rng.random((30, 3))
+    y = 0.3 + 0.3 * np.sin(4 * X[:, 0]) + 0.05 * rng.standard_normal(30)
+    safety = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.05, signal_std=0.6, noise_std=0.012), 3)
+    bo = SafeBO(SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.1, signal_std=0.6, noise_std=0.012), 3),
+                SafeBOConfig(), np.ones(3, bool), np.random.default_rng(0), safety_model=safety,
+                adaptive=AdaptiveConfig(learn_safety_scale=True, scale_extent_factor=10.0, safety_noise_max=0.25))
+    bo.fit(X, y)
+    assert bo.noise_floor == 0.012 and 0.03 < bo.safety_model.noise_std < 0.08
+    assert bo.safety_model.gp.noise == pytest.approx(bo.safety_model.noise_std**2)  # the fitted GP uses it
+    assert bo.model.noise_std == 0.012  # the main GP keeps its own
+
+
+def test_the_trust_region_centre_is_never_inside_a_failures_exclusion_ball() -> None:
+    """A flew 0.9 and is the best point, but a trial 0.02 from it crashed: with growing balls the trust region
+    centres on B (0.6, clear of failures) instead. A centre inside a ball wider than the trust region left no
+    candidate to query: a 200-flight nominal run re-flew one point near a0 for its last ~80 flights. Control:
+    fixed balls keep A."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    A, B = np.array([0.6, 0.6]), np.array([0.3, 0.3])
+
+    def centre(growth: float) -> np.ndarray:
+        model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
+        bo = SafeBO(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
+                    adaptive=AdaptiveConfig(censor_aborts=True, trust_region=True, exclusion_growth=growth))
+        bo.fit(np.array([B, A]), np.array([0.6, 0.9]))
+        assert np.array_equal(bo.tr.center, A)  # before any failure: the best point
+        bo.observe(A + np.array([0.02, 0.0]), -1.0, Outcome.CRASHED)
+        return bo.tr.center
+
+    np.testing.assert_array_equal(centre(2.0), B)
+    np.testing.assert_array_equal(centre(1.0), A)
+
+
+@pytest.mark.parametrize("name", ["ard_acquisition", "safety_noise_max"])
+def test_negative_scale_options_are_refused(name: str) -> None:
+    from ksbo_mav.errors import InputError
+    from ksbo_mav.opt.options import options_for
+
+    assert options_for("ksbo-adaptive").ard_acquisition == 2.0  # the default of the adaptive method
+    with pytest.raises(InputError, match=name):
+        options_for("ksbo-adaptive", {name: -1.0})

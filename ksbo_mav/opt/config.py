@@ -107,6 +107,13 @@ class AdaptiveConfig:
             radius (opt.region.exclusion_radii); 1 = fixed balls. Fallbacks then avoid the balls too.
         failure_scale_shrink: each trial at new gains that aborts or crashes multiplies the learnt safety
             lengthscales by this (a certified point failed: the GP claimed too much smoothness); 1 = off.
+        ard_acquisition: > 0: the UCB (and the candidate anchors) come from a copy of the main GP whose base
+            lengthscale along each dimension is raised to ``ard_acquisition`` × the learnt safety lengthscale
+            there, so a step along a dimension the data show to be flat earns little uncertainty bonus. Safety (the
+            LCB) stays with the main and safety GPs. 0 = the main GP's UCB.
+        safety_noise_max: > 0: the safety GP's noise std is learnt with its lengthscales, between the fixed value
+            and ``safety_noise_max`` × its signal std (flight-to-flight scatter otherwise forces short scales);
+            0 = fixed.
     """
 
     censor_aborts: bool = False
@@ -132,13 +139,15 @@ class AdaptiveConfig:
     exclusion_growth: float = 1.0
     exclusion_max: float = 0.2
     failure_scale_shrink: float = 1.0
+    ard_acquisition: float = 0.0
+    safety_noise_max: float = 0.0
 
     @property
     def enabled(self) -> bool:
         """Whether any adaptive mechanism is on (off = the paper's strict safe BO, bit for bit)."""
         return (self.censor_aborts or self.learn_safety_scale or self.trust_region or self.max_aborts is not None
                 or self.backup_beta is not None or self.refly_last > 0 or self.reselect_every > 0
-                or self.exclusion_growth > 1.0 or self.failure_scale_shrink < 1.0)
+                or self.exclusion_growth > 1.0 or self.failure_scale_shrink < 1.0 or self.ard_acquisition > 0)
 
 
 @dataclass(frozen=True)

@@ -15,9 +15,10 @@ region is reachable in 9-D (pitfall 4). Two acquisition rules:
 If no candidate is certified safe the observation with the largest LCB is re-evaluated (a *fallback*); with a
 known-safe start this is always a point that was safe before.
 
-With an :class:`AdaptiveConfig` (issue 13) the state machine also learns the safety GP's lengthscales, keeps a
-trust region, and — while the abort budget lasts — queries points the backup covers (certified with
-``backup_beta``, low predicted abort/crash probability). Aborted and crashed trials are censored: they enter the
+With an :class:`AdaptiveConfig` (issue 13) the state machine also learns the safety GP's lengthscales (and
+takes its UCB from a GP stretched along the dimensions they show to be flat; opt.scale), keeps a trust region,
+and — while the abort budget lasts — queries points the backup covers (certified with ``backup_beta``, low
+predicted abort/crash probability). Aborted and crashed trials are censored: they enter the
 failure model and the exclusion balls, never the GPs as values. Re-fly phase and recommendation: opt.recommend.
 """
 
@@ -29,10 +30,10 @@ import numpy as np
 
 from ksbo_mav.opt.acquisition import (Acquisition, BoundaryExpansion, PosteriorMean, SafeOptRule, SafeUCB,
                                       WidestFeasible)
-from ksbo_mav.opt import recommend, region
+from ksbo_mav.opt import recommend, region, scale
 from ksbo_mav.opt.candidates import refine
 from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-from ksbo_mav.opt.failure_model import FailureModel, learn_lengthscales
+from ksbo_mav.opt.failure_model import FailureModel
 from ksbo_mav.opt.model import SafetyModel
 from ksbo_mav.opt.trust_region import TrustRegion
 from ksbo_mav.opt.outcome import Outcome
@@ -80,6 +81,8 @@ class SafeBO:
     refly_set: np.ndarray | None = field(default=None, init=False)  # (k,) data indices re-flown (opt.runner)
     scale_factor: float = field(default=1.0, init=False)  # learnt safety scale × this (shrinks on new failures)
     ml_scale: np.ndarray | None = field(default=None, init=False)  # (d,) last marginal-likelihood lengthscales
+    acq_model: SafetyModel | None = field(default=None, init=False)  # main GP stretched along flat dimensions
+    noise_floor: float | None = field(default=None, init=False)  # the safety GP's fixed noise std (learnt above it)
 
     def __post_init__(self) -> None:
         if self.config.rule not in RULES:
@@ -127,24 +130,17 @@ class SafeBO:
             if m is not None:
                 m.fit(Xc, yc)
         target = self._scale_model()
-        a = self.adaptive
-        if learn and target is not None and yc.size >= 2:
-            start = np.broadcast_to(np.asarray(target.spec.lengthscale if self.ml_scale is None else self.ml_scale,
-                                               dtype=float), (self.model.dim,))
-            # Warm start: once a few fits exist, the previous optimum is the only start (no random restart).
-            restarts = 1 if len(self.scale_history) < 4 * a.scale_refit_every else 0
-            self.ml_scale = learn_lengthscales(Xc, yc - self.p_min, target.signal_std, target.noise_std, start,
-                                               a.safety_scale_prior, a.safety_scale_bounds, self.rng,
-                                               a.scale_extent_factor, restarts)
-        if target is not None and self.ml_scale is not None and (learn or self.scale_factor < 1.0):
-            ls = np.maximum(self.ml_scale * self.scale_factor, a.safety_scale_bounds[0])
-            target.spec = target.spec.with_(lengthscale=tuple(float(v) for v in ls))
-            target.fit(Xc, yc)
-            self.scale_history.append([float(v) for v in ls])
+        if target is not None:
+            scale.relearn(self, target, Xc, yc, learn)
         if self.tr is not None and target is not None and np.ndim(target.spec.lengthscale):
             self.tr.set_weights(np.asarray(target.spec.lengthscale, dtype=float))
+        self.refresh_acquisition()
         if self.adaptive.backup_beta is not None or self.adaptive.censor_aborts:
             self.failures = FailureModel(self._safety_lengthscales()).fit(self.X, ~self.complete, self.crashed)
+
+    def refresh_acquisition(self) -> None:
+        """Rebuild the acquisition GP from the current data and learnt scale (opt.scale.acquisition_model)."""
+        self.acq_model = scale.acquisition_model(self)
 
     def _scale_model(self) -> SafetyModel | None:
         """The SE-ARD GP whose lengthscales are the safety scale (the safety GP, or an SE-ARD main model)."""
@@ -184,7 +180,7 @@ class SafeBO:
                                                                       or a.failure_scale_shrink < 1.0)):
             self._refit(learn=learn)
         elif done or not a.censor_aborts:
-            for m in (self.model, self.safety_model):
+            for m in (self.model, self.safety_model, self.acq_model):
                 if m is not None:
                     m.add(x, y)
         if self.tr is not None:
@@ -192,8 +188,12 @@ class SafeBO:
             self.tr.center = self.incumbent()
 
     def incumbent(self) -> np.ndarray:
-        """(d,) best completed safe trial by posterior mean (the trust region's centre; x0 before any)."""
+        """(d,) best completed safe trial by posterior mean (the trust region's centre; x0 before any), outside
+        the failures' exclusion balls when they grow: a centre inside a ball larger than the trust region leaves
+        no candidate to query, and the run falls back to re-flying one point for the rest of its budget."""
         ok = self.complete & (self.y >= self.p_min)
+        if self.adaptive.exclusion_growth > 1.0 and ok.any() and not self.complete.all():
+            ok[ok] = ~region.excluded(self, self.X[ok])
         if not ok.any():
             return self.x0.copy()
         mu, _ = self.model.predict(self.X[ok])
@@ -223,6 +223,11 @@ class SafeBO:
         if self.safety_model is not None:
             mu_s, sd_s = self.safety_model.predict(Xc)
             lcb = np.minimum(lcb, np.minimum(mu_s, cap) - beta * sd_s)
+        if self.acq_model is not None:
+            mu_a, sd_a = self.acq_model.predict(Xc)
+            if self.config.y_max is not None:
+                mu_a = np.minimum(mu_a, self.config.y_max)
+            return mu, sd, lcb, mu_a + b_ucb * sd_a
         return mu, sd, lcb, mu + b_ucb * sd
 
     def safe_mask(self, Xc: np.ndarray) -> np.ndarray:

@@ -94,6 +94,7 @@ def _switch_orders(bo: SafeBO, orders: tuple[int, ...]) -> None:
     spec = old.spec.with_(orders=tuple(orders), signal_std=old.signal_std, noise_std=old.noise_std)
     bo.model = SafetyModel(spec, old.dim, old.p_min, old.seed)
     bo.model.fit(bo.X[bo.gp_mask], bo.y[bo.gp_mask])
+    bo.refresh_acquisition()
 
 
 def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | None) -> OptimizeResult:
