@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import ksbo_mav
-from ksbo_mav.opt.failure_model import FailureModel, learn_lengthscales, learn_scales
+from ksbo_mav.opt.failure_model import FailureModel, learn_scales
 from ksbo_mav.opt.outcome import Evaluation, Outcome
 from ksbo_mav.opt.trust_region import TrustRegion
 
@@ -51,12 +51,12 @@ def test_fixed_scale_is_unsafe_on_the_small_scale_problem() -> None:
     assert r.n_unsafe > 0
 
 
-def test_learn_lengthscales_is_capped_by_the_data_extent() -> None:
+def test_learnt_lengthscales_are_capped_by_the_data_extent() -> None:
     rng = np.random.default_rng(0)
     X = 0.5 + 0.01 * rng.standard_normal((6, 3))
-    ls = learn_lengthscales(X, np.full(6, 0.5), 1.0, 0.01, np.full(3, 0.05), extent_factor=2.0)
+    ls = learn_scales(X, np.full(6, 0.5), 1.0, 0.01, np.full(3, 0.05), extent_factor=2.0)[0]
     assert np.all(ls <= 2.0 * (X.max(0) - X.min(0)) + 1e-12)
-    wide = learn_lengthscales(X, np.full(6, 0.5), 1.0, 0.01, np.full(3, 0.05), extent_factor=None)
+    wide = learn_scales(X, np.full(6, 0.5), 1.0, 0.01, np.full(3, 0.05), extent_factor=None)[0]
     assert np.all(wide > ls)  # without the cap, a flat function claims long scales from a tiny cluster
 
 

@@ -21,15 +21,6 @@ from ksbo_mav.gp.fitting import fit_hyperparameters
 from ksbo_mav.gp.linalg import CholeskyError
 
 
-def learn_lengthscales(
-    X: np.ndarray, g: np.ndarray, signal_std: float, noise_std: float, start: np.ndarray,
-    prior: tuple[float, float] = (0.1, 1.0), bounds: tuple[float, float] = (0.01, 1.0),
-    rng: np.random.Generator | None = None, extent_factor: float | None = 2.0, restarts: int = 1,
-) -> np.ndarray:
-    """ML-II (MAP) per-dimension lengthscales of an SE-ARD GP, signal and noise fixed (:func:`learn_scales`)."""
-    return learn_scales(X, g, signal_std, noise_std, start, prior, bounds, rng, extent_factor, restarts)[0]
-
-
 def learn_scales(
     X: np.ndarray, g: np.ndarray, signal_std: float, noise_std: float, start: np.ndarray,
     prior: tuple[float, float] = (0.1, 1.0), bounds: tuple[float, float] = (0.01, 1.0),

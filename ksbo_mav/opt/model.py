@@ -111,6 +111,13 @@ class SafetyModel:
         self.n = len(g)
         return self
 
+    def variant(self, **changes) -> "SafetyModel":
+        """An unfitted copy whose spec has this model's signal and noise scales (fixed from its first data) and
+        ``changes`` (:class:`ModelSpec` fields, ``noise_std`` included) — for GPs that must be comparable with it
+        (order re-selection, the smoothing and acquisition GPs)."""
+        spec = self.spec.with_(**{"signal_std": self.signal_std, "noise_std": self.noise_std, **changes})
+        return SafetyModel(spec, self.dim, self.p_min, self.seed)
+
     def add(self, x: np.ndarray, y: float) -> None:
         """Incremental update with one observation x (d,), y."""
         assert self.gp is not None, "fit first"

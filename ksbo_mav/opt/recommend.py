@@ -14,8 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ksbo_mav.opt.model import SafetyModel
-from ksbo_mav.opt.region import excluded
+from ksbo_mav.opt.region import excluded, in_grown_ball
 
 if TYPE_CHECKING:
     from ksbo_mav.opt.safe_bo import SafeBO
@@ -36,9 +35,7 @@ def smoothed(bo: "SafeBO") -> tuple[np.ndarray, np.ndarray]:
     """Recommendation criterion at the data: (n,) posterior mean and (n,) LCB (of the smoothing GP)."""
     mu, _, lcb, _ = bo.bounds(bo.X)
     if bo.config.recommend_noise is not None:
-        spec = bo.model.spec.with_(signal_std=bo.model.signal_std,
-                                   noise_std=bo.config.recommend_noise * bo.model.signal_std)
-        smooth = SafetyModel(spec, bo.model.dim, bo.p_min, bo.model.seed)
+        smooth = bo.model.variant(noise_std=bo.config.recommend_noise * bo.model.signal_std)
         smooth.fit(bo.X[bo.gp_mask], bo.y[bo.gp_mask])
         mu_s, sd_s = smooth.predict(bo.X)
         mu, lcb = mu_s, mu_s - bo.config.beta * sd_s
@@ -116,8 +113,8 @@ def next_refly(bo: "SafeBO", k: int) -> int:
     failures (:func:`clear_choice`), if there is one."""
     _refresh_failures(bo)
     alive = [int(c) for c in bo.refly_set if bo.complete[np.all(bo.X == bo.X[c], axis=1)].all()]
-    if bo.adaptive.exclusion_growth > 1.0 and alive:  # nor inside a failure's (grown) exclusion ball
-        alive = [c for c, out in zip(alive, excluded(bo, bo.X[alive])) if not out]
+    if alive:  # nor inside a failure's (grown) exclusion ball
+        alive = [c for c, out in zip(alive, in_grown_ball(bo, bo.X[alive])) if not out]
     if not alive:
         clear = clear_choice(bo)
         if clear is None:

@@ -99,6 +99,15 @@ def excluded(bo: "SafeBO", Z: np.ndarray) -> np.ndarray:
     return (d2 < r[None, :] ** 2).any(axis=1)
 
 
+def in_grown_ball(bo: "SafeBO", Z: np.ndarray) -> np.ndarray:
+    """(m,) bool: Z (m, d) inside a failure's exclusion ball when the balls grow (``exclusion_growth`` > 1, the
+    adaptive optimiser): the fallback, the re-fly phase and the trust region's centre keep out of them. All False
+    with fixed balls, where only certified candidates are excluded (the paper method, bit for bit)."""
+    if bo.adaptive.exclusion_growth <= 1.0:
+        return np.zeros(Z.shape[0], dtype=bool)
+    return excluded(bo, Z)
+
+
 def fallback_index(bo: "SafeBO", lcb_d: np.ndarray) -> int:
     """Data index re-flown when no candidate is certified: the best-LCB completed observation (lcb_d (n,)) in the
     search subspace (x0 always is one), never one the failure model now expects to abort or crash, nor (with
@@ -108,7 +117,6 @@ def fallback_index(bo: "SafeBO", lcb_d: np.ndarray) -> int:
     if bo.failures is not None and not bo.complete.all() and inside.any():
         # A trial that completed once may abort the next time (bistable gains on a random start); x0 stays allowed.
         ok = bo.failures.acceptable(bo.X, bo.adaptive.abort_tol, bo.adaptive.crash_tol)
-        if bo.adaptive.exclusion_growth > 1.0:
-            ok &= ~excluded(bo, bo.X)
+        ok &= ~in_grown_ball(bo, bo.X)
         inside &= ok | np.all(bo.X == bo.x0, axis=1)
     return int(np.argmax(np.where(inside, lcb_d, -np.inf))) if inside.any() else int(np.argmax(lcb_d))

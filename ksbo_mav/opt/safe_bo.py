@@ -192,8 +192,8 @@ class SafeBO:
         the failures' exclusion balls when they grow: a centre inside a ball larger than the trust region leaves
         no candidate to query, and the run falls back to re-flying one point for the rest of its budget."""
         ok = self.complete & (self.y >= self.p_min)
-        if self.adaptive.exclusion_growth > 1.0 and ok.any() and not self.complete.all():
-            ok[ok] = ~region.excluded(self, self.X[ok])
+        if ok.any() and not self.complete.all():
+            ok[ok] = ~region.in_grown_ball(self, self.X[ok])
         if not ok.any():
             return self.x0.copy()
         mu, _ = self.model.predict(self.X[ok])

@@ -90,9 +90,7 @@ def _outcome_masks(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
 
 def _switch_orders(bo: SafeBO, orders: tuple[int, ...]) -> None:
     """Rebuild the main GP with new orders (scales kept) and refit it on the completed data."""
-    old = bo.model
-    spec = old.spec.with_(orders=tuple(orders), signal_std=old.signal_std, noise_std=old.noise_std)
-    bo.model = SafetyModel(spec, old.dim, old.p_min, old.seed)
+    bo.model = bo.model.variant(orders=tuple(orders))
     bo.model.fit(bo.X[bo.gp_mask], bo.y[bo.gp_mask])
     bo.refresh_acquisition()
 

@@ -53,7 +53,5 @@ def acquisition_model(bo: "SafeBO") -> SafetyModel | None:
         return None
     base = np.broadcast_to(np.asarray(bo.model.spec.lengthscale, dtype=float), (bo.model.dim,))
     ls = np.maximum(base, factor * bo.ml_scale)
-    spec = bo.model.spec.with_(lengthscale=tuple(float(v) for v in ls), signal_std=bo.model.signal_std,
-                               noise_std=bo.model.noise_std, optimize=False)
-    acq = SafetyModel(spec, bo.model.dim, bo.p_min, bo.model.seed)
+    acq = bo.model.variant(lengthscale=tuple(float(v) for v in ls), optimize=False)
     return acq.fit(bo.X[bo.gp_mask], bo.y[bo.gp_mask])

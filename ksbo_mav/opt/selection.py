@@ -89,8 +89,7 @@ def evidence(model: SafetyModel, X: np.ndarray, y: np.ndarray, orders: tuple[int
     """Log marginal likelihood of each single order r (the running model's spec, signal and noise) on X, y."""
     out = {}
     for r in orders:
-        m = SafetyModel(model.spec.with_(orders=(int(r),), order_weights=None, signal_std=model.signal_std,
-                                         noise_std=model.noise_std), model.dim, model.p_min, model.seed)
+        m = model.variant(orders=(int(r),), order_weights=None)
         m.fit(X, y)
         out[int(r)] = float(m.gp.log_marginal_likelihood_value_)
     return out
