@@ -4,6 +4,7 @@ from :func:`optimize`."""
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
+from numbers import Real
 from typing import Any, Mapping
 
 from ksbo_mav.errors import InputError
@@ -22,11 +23,14 @@ class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, Safe
     """
 
     def update(self, overrides: Mapping[str, Any]) -> "Options":
-        """Copy with ``overrides`` applied; unknown names or invalid choices raise :class:`InputError`."""
-        names = {f.name for f in fields(self)}
-        bad = sorted(set(overrides) - names)
+        """Copy with ``overrides`` applied; unknown names, values of the wrong kind (a word where a number
+        belongs, e.g. ``--option beta=abc``) or invalid choices raise :class:`InputError`."""
+        types = {f.name: f.type for f in fields(self)}
+        bad = sorted(set(overrides) - set(types))
         if bad:
-            raise InputError(f"unknown option(s) {', '.join(bad)}; known: {', '.join(sorted(names))}")
+            raise InputError(f"unknown option(s) {', '.join(bad)}; known: {', '.join(sorted(types))}")
+        for name, value in overrides.items():
+            _check_kind(name, types[name], value)
         new = replace(self, **dict(overrides))
         new.validate()
         return new
@@ -54,6 +58,30 @@ class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, Safe
             raise InputError("failure_scale_shrink must be in (0, 1]")
         if not (0 < self.tr_min <= self.tr_init <= self.tr_max):
             raise InputError("trust region sizes must satisfy 0 < tr_min <= tr_init <= tr_max")
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, Real) and not isinstance(v, bool)
+
+
+def _check_kind(name: str, annotation: str, value: Any) -> None:
+    """InputError unless ``value`` is of the kind the field's annotation (a string: postponed annotations) names:
+    None only where it says ``| None``; a number for ``float``/``int`` (``validate`` checks ranges and integers), a
+    bool, a string, or a list/tuple of numbers."""
+    kind = annotation.split("|")[0].strip()
+    if value is None:
+        ok, want = "None" in annotation, "a value (not null)"
+    elif kind in ("float", "int"):
+        ok, want = _is_number(value), "a number"
+    elif kind == "bool":
+        ok, want = isinstance(value, bool), "true or false"
+    elif kind == "str":
+        ok, want = isinstance(value, str), "a string"
+    else:  # tuple[...]
+        ok, want = isinstance(value, (list, tuple)) and all(_is_number(v) for v in value), "a list of numbers"
+    if not ok:
+        raise InputError(f"option {name} must be {want}" + (" or null" if "None" in annotation else "")
+                         + f", got {value!r}")
 
 
 _CHOICES: dict[str, tuple[str, ...]] = {
