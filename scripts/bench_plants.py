@@ -207,11 +207,25 @@ def _rms(rs: list[dict]) -> str:
         (f", {sum(np.isnan(v))} not complete" if any(np.isnan(v)) else "")
 
 
+#: Tag words of runs made with superseded defaults: their tables go to the end of the report, under one heading.
+ARCHIVED = ("(before", "(previous")
+
+
+def archived(tag: str) -> bool:
+    """Whether runs with this tag were made with superseded defaults (tag ends in "(before …)"/"(previous …)")."""
+    return any(w in tag for w in ARCHIVED)
+
+
 def report(recs: list[dict]) -> str:
     best = best_known(recs)
-    keys = sorted({(r["tag"] or "", r["mode"], r["method"], r["n_prior"], r["budget"]) for r in recs})
+    keys = sorted({(r["tag"] or "", r["mode"], r["method"], r["n_prior"], r["budget"]) for r in recs},
+                  key=lambda k: (archived(k[0]), k))
     lines = []
+    heading = False
     for tag, mode, method, n_prior, budget in keys:
+        if archived(tag) and not heading:
+            heading = True
+            lines += ["#### Earlier generations (superseded defaults, kept for comparison)", ""]
         local = any((r.get("local_prior") or r["plant"] in SITL_PLANTS) for r in recs
                     if (r["tag"] or "", r["n_prior"], r["budget"]) == (tag, n_prior, budget))
         design = "%d LHS around the baseline (`tune --prior local`) + " if local else "%d LHS + "

@@ -236,6 +236,23 @@ def test_orders_are_reselected_by_evidence_and_changes_reported() -> None:
     assert r.orders == tuple(res[-1]["orders"])
 
 
+def test_ksbo_reselects_its_orders_every_10_iterations_by_default_and_0_keeps_the_papers_selection() -> None:
+    def additive(x: np.ndarray) -> float:
+        return float(0.5 + 0.3 * np.sum(np.sin(3 * np.asarray(x))) / 4)
+
+    rng = np.random.default_rng(0)
+    pX = 0.4 + 0.2 * rng.random((12, 4))
+    prior = (pX, np.array([additive(x) for x in pX]))
+    kw = dict(budget=22, seed=0, prior=prior, method="ksbo", max_order=4, trials=20, n_local=128)
+    r = ksbo_mav.optimize(additive, np.full(4, 0.5), np.array([[0.0, 1.0]] * 4), **kw)
+    assert r.info["selection"]["method"] == "cree"
+    assert [s["at_iteration"] for s in r.info["reselections"]] == [10, 20]
+    assert r.orders == tuple(r.info["reselections"][-1]["orders"])
+    once = ksbo_mav.optimize(additive, np.full(4, 0.5), np.array([[0.0, 1.0]] * 4), reselect_every=0, **kw)
+    assert "reselections" not in once.info
+    assert once.orders == tuple(once.info["selection"]["orders"])
+
+
 def test_monitor_outcomes_reach_the_result_counts() -> None:
     from ksbo_mav.objective import SimObjective
 
@@ -521,3 +538,52 @@ def test_negative_scale_options_are_refused(name: str) -> None:
     assert options_for("ksbo-adaptive").ard_acquisition == 2.0  # the default of the adaptive method
     with pytest.raises(InputError, match=name):
         options_for("ksbo-adaptive", {name: -1.0})
+
+
+def test_a_scale_refit_fits_the_safety_gp_once_and_matches_a_fresh_fit(monkeypatch) -> None:
+    """The safety GP is fitted once per refit of its learnt scale (the fit before the scale was learnt only fixed
+    its signal and noise scales on the first call), and the posterior is that of a fresh fit with the learnt
+    lengthscales."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    rng = np.random.default_rng(5)
+    X = 0.4 + 0.2 * rng.random((30, 3))
+    y = 0.5 + 0.2 * np.sin(10 * X[:, 0])
+    safety = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.05, noise_std=None), 3)
+    bo = SafeBO(SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.1), 3), SafeBOConfig(), np.ones(3, bool),
+                np.random.default_rng(0), safety_model=safety,
+                adaptive=AdaptiveConfig(learn_safety_scale=True, scale_refit_every=1))
+    bo.fit(X, y)
+    fits: list[int] = []
+    real_fit = SafetyModel.fit
+
+    def counting_fit(self, X_, y_):
+        fits.append(id(self))
+        return real_fit(self, X_, y_)
+
+    monkeypatch.setattr(SafetyModel, "fit", counting_fit)
+    x_new = np.array([0.5, 0.45, 0.55])
+    bo.observe(x_new, 0.5 + 0.2 * np.sin(5.0))  # iteration 1 <= 4 * scale_refit_every: a scale refit
+    assert len(bo.scale_history) == 2
+    assert fits.count(id(bo.safety_model)) == 1
+    fresh = bo.safety_model.variant(lengthscale=bo.safety_model.spec.lengthscale)
+    real_fit(fresh, bo.X, bo.y)
+    Z = 0.3 + 0.4 * rng.random((20, 3))
+    for a, b in zip(bo.safety_model.predict(Z), fresh.predict(Z)):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+
+
+def test_the_failure_model_takes_every_trial_not_only_those_that_trigger_a_refit() -> None:
+    """A completed trial that updates the GPs rank-one (no refit) joins the failure records too, so P(abort)
+    next to an earlier abort falls as soon as flights there complete."""
+    x0, B = np.array([0.2, 0.2]), np.array([0.6, 0.6])
+    bo = _adaptive_bo()
+    bo.fit(np.array([x0, [0.3, 0.3]]), np.array([0.3, 0.5]))
+    bo.observe(B, -1.0, Outcome.ABORTED)
+    p_before = bo.failures.predict(B[None, :])[0][0]
+    for dx in (0.01, -0.01, 0.02):
+        bo.observe(B + dx, 0.6)  # completed, no refit (scale learning off, refit_every 0)
+    assert bo.failures.X.shape[0] == bo.X.shape[0] == 6
+    assert bo.failures.predict(B[None, :])[0][0] < 0.6 * p_before

@@ -30,7 +30,8 @@ def add_parser(subparsers) -> None:
                                     "treats aborted trials as censored, caps them at max_aborts and re-flies its "
                                     "best candidates; on profiles whose backup covers the trials it also explores "
                                     "beyond the certified set), ksbo (the paper's method), standard, safeopt, ...")
-    p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30)")
+    p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30); a "
+                   "local prior's flights (8) and the confirmation re-flights come on top: --dry-run prints the total")
     p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
     p.add_argument("--prior", choices=("auto", "sim", "local", "none"),
                    help="kernel-selection prior: simulator episodes (sim, default for the built-in vehicle), a local "

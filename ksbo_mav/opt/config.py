@@ -101,7 +101,8 @@ class AdaptiveConfig:
             is then the best mean over each point's flights (once any trial failed: the best expected score under
             the failure model, and a candidate that failed is not re-flown; opt.recommend).
         reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
-            by marginal likelihood (Algorithm 1 stays the first selection); 0 = never.
+            by marginal likelihood (Algorithm 1 stays the first selection); 0 = never (the paper's once-only
+            selection). ``ksbo`` and ``ksbo-adaptive`` default to 10 (opt.options).
         exclusion_growth, exclusion_max: the exclusion ball (``exclusion_radius``) of a bad trial grows
             ×``exclusion_growth`` (up to ``exclusion_max``) each time a later bad trial lands within twice its
             radius (opt.region.exclusion_radii); 1 = fixed balls. Fallbacks then avoid the balls too.
@@ -141,13 +142,6 @@ class AdaptiveConfig:
     failure_scale_shrink: float = 1.0
     ard_acquisition: float = 0.0
     safety_noise_max: float = 0.0
-
-    @property
-    def enabled(self) -> bool:
-        """Whether any adaptive mechanism is on (off = the paper's strict safe BO, bit for bit)."""
-        return (self.censor_aborts or self.learn_safety_scale or self.trust_region or self.max_aborts is not None
-                or self.backup_beta is not None or self.refly_last > 0 or self.reselect_every > 0
-                or self.exclusion_growth > 1.0 or self.failure_scale_shrink < 1.0 or self.ard_acquisition > 0)
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""Where :class:`ksbo_mav.opt.safe_bo.SafeBO` looks: anchors, the connected search region, the candidate set."""
+"""Where :class:`ksbo_mav.opt.safe_bo.SafeBO` looks: anchors, the connected search region, the candidate set, the
+exclusion balls around failures, the trust region's centre and the fallback."""
 
 from __future__ import annotations
 
@@ -106,6 +107,19 @@ def in_grown_ball(bo: "SafeBO", Z: np.ndarray) -> np.ndarray:
     if bo.adaptive.exclusion_growth <= 1.0:
         return np.zeros(Z.shape[0], dtype=bool)
     return excluded(bo, Z)
+
+
+def incumbent(bo: "SafeBO") -> np.ndarray:
+    """(d,) best completed safe trial by posterior mean (the trust region's centre; x0 before any), outside the
+    failures' exclusion balls when they grow: a centre inside a ball larger than the trust region leaves no
+    candidate to query, and the run falls back to re-flying one point for the rest of its budget."""
+    ok = bo.complete & (bo.y >= bo.p_min)
+    if ok.any() and not bo.complete.all():
+        ok[ok] = ~in_grown_ball(bo, bo.X[ok])
+    if not ok.any():
+        return bo.x0.copy()
+    mu, _ = bo.model.predict(bo.X[ok])
+    return bo.X[ok][int(np.argmax(mu))].copy()
 
 
 def fallback_index(bo: "SafeBO", lcb_d: np.ndarray) -> int:

@@ -126,10 +126,13 @@ class SafeBO:
 
     def _refit(self, learn: bool = False) -> None:
         Xc, yc = self.X[self.gp_mask], self.y[self.gp_mask]
-        for m in (self.model, self.safety_model):
-            if m is not None:
-                m.fit(Xc, yc)
         target = self._scale_model()
+        # relearn refits the scale model with its new lengthscales; a fit before that only fixes its signal and
+        # noise scales (first call), so later calls skip it (an O(n^3) fit per refit).
+        skip = target is not None and np.isfinite(target.signal_std) and scale.refits(self, learn, yc.size)
+        for m in (self.model, self.safety_model):
+            if m is not None and not (skip and m is target):
+                m.fit(Xc, yc)
         if target is not None:
             scale.relearn(self, target, Xc, yc, learn)
         if self.tr is not None and target is not None and np.ndim(target.spec.lengthscale):
@@ -179,25 +182,22 @@ class SafeBO:
         if learn or (k and self.iteration % k == 0) or (not done and (self.failures is not None
                                                                       or a.failure_scale_shrink < 1.0)):
             self._refit(learn=learn)
-        elif done or not a.censor_aborts:
-            for m in (self.model, self.safety_model, self.acq_model):
-                if m is not None:
-                    m.add(x, y)
+        else:
+            if done or not a.censor_aborts:
+                for m in (self.model, self.safety_model, self.acq_model):
+                    if m is not None:
+                        m.add(x, y)
+            if self.failures is not None:
+                # Every trial joins the failure records at once (they used to wait for the next refit): a success
+                # next to a failure lowers its predicted P(abort) for the very next proposal.
+                self.failures.fit(self.X, ~self.complete, self.crashed)
         if self.tr is not None:
             self.tr.update(outcome, done and y >= self.p_min and y > best_before)
             self.tr.center = self.incumbent()
 
     def incumbent(self) -> np.ndarray:
-        """(d,) best completed safe trial by posterior mean (the trust region's centre; x0 before any), outside
-        the failures' exclusion balls when they grow: a centre inside a ball larger than the trust region leaves
-        no candidate to query, and the run falls back to re-flying one point for the rest of its budget."""
-        ok = self.complete & (self.y >= self.p_min)
-        if ok.any() and not self.complete.all():
-            ok[ok] = ~region.in_grown_ball(self, self.X[ok])
-        if not ok.any():
-            return self.x0.copy()
-        mu, _ = self.model.predict(self.X[ok])
-        return self.X[ok][int(np.argmax(mu))].copy()
+        """(d,) the trust region's centre (opt.region.incumbent)."""
+        return region.incumbent(self)
 
     # -- posterior ----------------------------------------------------------------------------------------------
     @property

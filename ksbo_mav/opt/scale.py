@@ -20,6 +20,13 @@ if TYPE_CHECKING:
     from ksbo_mav.opt.safe_bo import SafeBO
 
 
+def refits(bo: "SafeBO", learn: bool, n: int) -> bool:
+    """Whether :func:`relearn` with ``learn`` on ``n`` completed trials refits its target (so an earlier fit of
+    the target in the same refit is wasted once its signal and noise scales are fixed)."""
+    has_scale = bo.ml_scale is not None or (learn and n >= 2)
+    return has_scale and (learn or bo.scale_factor < 1.0)
+
+
 def relearn(bo: "SafeBO", target: SafetyModel, Xc: np.ndarray, yc: np.ndarray, learn: bool) -> None:
     """Refit ``target``'s lengthscales on the completed trials Xc (n, d), yc (n,) when ``learn`` (ML-II, warm
     started), then apply the learnt scale × ``bo.scale_factor`` to it (also without a new fit once the factor
