@@ -117,11 +117,11 @@ def curves(rs: list[dict], key: str = "flights") -> tuple[np.ndarray, np.ndarray
     return Y, U
 
 
-def figures(setting: str, runs: dict[str, list[dict]]) -> list[str]:
+def figures(setting: str, runs: dict[str, list[dict]], fig_dir: Path = FIG) -> list[str]:
     from ksbo_mav.plotting import pyplot
 
     plt = pyplot()
-    FIG.mkdir(parents=True, exist_ok=True)
+    fig_dir.mkdir(parents=True, exist_ok=True)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.5))
     for m in ALL_NAMES:
         if m not in runs:
@@ -139,13 +139,13 @@ def figures(setting: str, runs: dict[str, list[dict]]) -> list[str]:
     a1.axhline(0.966, ls=":", c="k", lw=0.8)
     a1.legend(fontsize=8)
     fig.tight_layout()
-    p = FIG / f"campaign_{setting}.png"
+    p = fig_dir / f"campaign_{setting}.png"
     fig.savefig(p, dpi=110)
     plt.close(fig)
-    return [str(p.relative_to(ROOT))]
+    return [str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(p)]
 
 
-def trajectory_figure(runs: dict[str, list[dict]]) -> str | None:
+def trajectory_figure(runs: dict[str, list[dict]], fig_dir: Path = FIG) -> str | None:
     """Initial (a0) vs tuned (median-E ksbo run of the vehicle setting) trajectory on the first fixed init."""
     if "ksbo" not in runs:
         return None
@@ -161,14 +161,16 @@ def trajectory_figure(runs: dict[str, list[dict]]) -> str | None:
     init = fixed_initial_states(config=obj.episode)[0]
     f0 = obj.fly(prof.default, init=init)
     f1 = obj.fly(np.asarray(r["x"]), init=init)
-    p = FIG / "campaign_trajectory.png"
+    p = fig_dir / "campaign_trajectory.png"
     plot_trajectories([f0.trajectory, f1.trajectory],
                       [f"initial a0 (P={f0.P:.3f})", f"ksbo seed {r['seed']} (P={f1.P:.3f})"], p,
                       title="Figure-8: initial vs tuned gains (vehicle-safe setting)")
-    return str(p.relative_to(ROOT))
+    return str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(p)
 
 
 def report(args) -> None:
+    # --no-bench-md (a side run): the figures go beside its runs, not over the committed ones in docs/figures.
+    fig_dir = args.out / "figures" if args.no_bench_md else FIG
     lines = [SECTION, "",
              f"Machine: {machine()}. Scripts: `python scripts/bench_campaign.py` runs the campaign (2 worker "
              "processes, BLAS pinned to 1 thread; JSON per run in `benchmarks/campaign/`), then "
@@ -194,10 +196,10 @@ def report(args) -> None:
         lines += table(setting, runs) + [""]
         if setting == "paper":
             lines += ["Paper's comparisons side by side:", ""] + paper_comparison(runs) + [""]
-        for f in figures(setting, runs):
+        for f in figures(setting, runs, fig_dir):
             lines += [f"![{setting}]({f})", ""]
         if setting == "vehicle":
-            t = trajectory_figure(runs)
+            t = trajectory_figure(runs, fig_dir)
             if t:
                 lines += [f"![trajectory]({t})", ""]
     ov = overhead()
