@@ -122,7 +122,7 @@ class SafeBO:
             target.spec = target.spec.with_(lengthscale=float(self.adaptive.safety_scale_bounds[0]))
         self._refit(learn=self.adaptive.learn_safety_scale)
         if self.tr is not None:
-            self.tr.center = self.incumbent()
+            self.tr.center = region.incumbent(self)
 
     def _refit(self, learn: bool = False) -> None:
         Xc, yc = self.X[self.gp_mask], self.y[self.gp_mask]
@@ -193,11 +193,7 @@ class SafeBO:
                 self.failures.fit(self.X, ~self.complete, self.crashed)
         if self.tr is not None:
             self.tr.update(outcome, done and y >= self.p_min and y > best_before)
-            self.tr.center = self.incumbent()
-
-    def incumbent(self) -> np.ndarray:
-        """(d,) the trust region's centre (opt.region.incumbent)."""
-        return region.incumbent(self)
+            self.tr.center = region.incumbent(self)
 
     # -- posterior ----------------------------------------------------------------------------------------------
     @property

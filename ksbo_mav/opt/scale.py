@@ -30,7 +30,9 @@ def refits(bo: "SafeBO", learn: bool, n: int) -> bool:
 def relearn(bo: "SafeBO", target: SafetyModel, Xc: np.ndarray, yc: np.ndarray, learn: bool) -> None:
     """Refit ``target``'s lengthscales on the completed trials Xc (n, d), yc (n,) when ``learn`` (ML-II, warm
     started), then apply the learnt scale × ``bo.scale_factor`` to it (also without a new fit once the factor
-    shrank)."""
+    shrank; nothing when :func:`refits` says no)."""
+    if not refits(bo, learn, yc.size):
+        return
     a = bo.adaptive
     if learn and yc.size >= 2:
         start = np.broadcast_to(np.asarray(target.spec.lengthscale if bo.ml_scale is None else bo.ml_scale,
@@ -43,11 +45,10 @@ def relearn(bo: "SafeBO", target: SafetyModel, Xc: np.ndarray, yc: np.ndarray, l
         bo.ml_scale, target.noise_std = learn_scales(
             Xc, yc - bo.p_min, target.signal_std, bo.noise_floor, start, a.safety_scale_prior,
             a.safety_scale_bounds, bo.rng, a.scale_extent_factor, restarts, noise_max)
-    if bo.ml_scale is not None and (learn or bo.scale_factor < 1.0):
-        ls = np.maximum(bo.ml_scale * bo.scale_factor, a.safety_scale_bounds[0])
-        target.spec = target.spec.with_(lengthscale=tuple(float(v) for v in ls))
-        target.fit(Xc, yc)
-        bo.scale_history.append([float(v) for v in ls])
+    ls = np.maximum(bo.ml_scale * bo.scale_factor, a.safety_scale_bounds[0])
+    target.spec = target.spec.with_(lengthscale=tuple(float(v) for v in ls))
+    target.fit(Xc, yc)
+    bo.scale_history.append([float(v) for v in ls])
 
 
 def acquisition_model(bo: "SafeBO") -> SafetyModel | None:
