@@ -48,13 +48,17 @@ VARIANTS: dict[str, tuple[str, dict]] = {
     "ksbo-fast": ("ksbo", {"safety_lengthscale": 0.14, "exploit_last": 0, "explore_from": "all"}),
     # The paper's once-only kernel selection (ksbo re-selects by evidence every 10 iterations since issue 13).
     "ksbo-once": ("ksbo", {"reselect_every": 0}),
+    # β calibrated on the run's one-step-ahead errors (opt.calibration): floor 4, widened after a flight far below
+    # its prediction (an option, not a default: BENCHMARKS.md, issue 13, item S).
+    "ksbo-calib": ("ksbo", {"beta_min": 4.0}),
 }
 ALL_NAMES = ALL_METHODS + tuple(VARIANTS)
 
 #: Method options used in the campaign (documented in BENCHMARKS.md); shared by all safe methods unless noted.
 #: P lies in [-1, 1] (so prior std 1 on the margin P - 0) and P <= 1 is known (y_max). Everything else is the
 #: library default (opt.options.Options): beta 4 / beta_ucb 2, additive lengthscale 0.1, SE safety GP 0.07;
-#: ksbo's own defaults (opt.options.METHOD_DEFAULTS): orders selected among 1..4 (max_order), beta 5.
+#: ksbo's own defaults (opt.options.METHOD_DEFAULTS): orders selected among 1..4 (max_order) and re-selected every 10
+#: iterations, beta 5.
 SAFE_COMMON = {"signal_std": 1.0, "y_max": 1.0}
 METHOD_OPTIONS: dict[str, dict] = {
     "ksbo": {**SAFE_COMMON},

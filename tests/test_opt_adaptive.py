@@ -587,3 +587,83 @@ def test_the_failure_model_takes_every_trial_not_only_those_that_trigger_a_refit
         bo.observe(B + dx, 0.6)  # completed, no refit (scale learning off, refit_every 0)
     assert bo.failures.X.shape[0] == bo.X.shape[0] == 6
     assert bo.failures.predict(B[None, :])[0][0] < 0.6 * p_before
+
+
+# -- session 23: β calibrated on the run's one-step-ahead errors ------------------------------------------------
+
+def test_calibration_scores_are_the_beta_each_query_needed_and_set_beta_once_enough() -> None:
+    from ksbo_mav.opt.calibration import BetaCalibration
+
+    cal = BetaCalibration(beta_max=5.0, beta_min=2.0, quantile=1.0, margin=1.5, min_points=3, window=0, beta_cap=None)
+    x = np.array([0.1, 0.2])
+    # two models (main, safety): the bound held at β iff y ≥ μ_m − β σ_m for both, so the score is the larger ratio
+    cal.predicted(x, np.array([0.5, 0.4]), np.array([0.1, 0.2]))
+    cal.observed(x, 0.3)
+    assert cal.scores == pytest.approx([2.0])  # max((0.5 − 0.3)/0.1, (0.4 − 0.3)/0.2)
+    cal.predicted(x, np.array([0.5]), np.array([0.1]))
+    cal.observed(x + 0.1, 0.0)  # not the predicted query (a re-flight or fallback): not scored
+    cal.observed(x, 0.0)  # and the prediction was consumed
+    assert len(cal.scores) == 1 and cal.beta() == 5.0  # too few scores: the configured β
+    for y in (0.6, 0.55):  # better than predicted: negative scores
+        cal.predicted(x, np.array([0.5]), np.array([0.1]))
+        cal.observed(x, y)
+    assert cal.beta() == pytest.approx(3.0)  # 1.5 × max score 2.0, inside [2, 5]
+    cal.predicted(x, np.array([0.5]), np.array([0.1]))
+    cal.observed(x, -0.5)  # overstated by 10 σ
+    assert cal.beta() == 5.0  # clipped to the configured β
+    assert BetaCalibration(beta_max=5.0, scores=[0.0] * 20).beta() == 5.0  # beta_min None: calibration off
+    # beta_min = β: β stays the floor; only a bad flight widens it (a floor above β is clipped to β).
+    assert BetaCalibration(beta_max=5.0, beta_min=5.0, window=5, beta_cap=10.0, scores=[0.0] * 20).beta() == 5.0
+    assert BetaCalibration(beta_max=5.0, beta_min=6.0, window=5, beta_cap=10.0, scores=[0.0] * 19 + [9.0]).beta() == 9.0
+
+
+def test_after_a_flight_far_below_its_prediction_beta_widens_for_the_next_window_queries() -> None:
+    from ksbo_mav.opt.calibration import BetaCalibration
+
+    cal = BetaCalibration(beta_max=5.0, beta_min=4.0, quantile=0.95, margin=1.0, min_points=10, window=3,
+                          beta_cap=10.0, scores=[0.1] * 20)
+    assert cal.beta() == 4.0  # well predicted so far: the floor
+    cal.scores.append(70.0)  # a crash-like flight, 70 σ below the bound's mean
+    widened = [cal.beta()]
+    for _ in range(3):
+        cal.scores.append(0.2)
+        widened.append(cal.beta())
+    assert widened == [10.0, 10.0, 10.0, 4.0]  # capped at 10 for the window of 3 queries, then the floor again
+
+
+def _smooth(x: np.ndarray) -> float:
+    return float(0.8 - 2.0 * np.sum((np.asarray(x) - 0.6) ** 2))
+
+
+@pytest.mark.parametrize("calibrate", [False, True])
+def test_a_model_that_predicts_well_certifies_with_a_narrower_margin(calibrate: bool) -> None:
+    opts = {"beta_min": 2.0, "beta_quantile": 0.95, "beta_margin": 1.0} if calibrate else {}
+    r = ksbo_mav.optimize(_smooth, np.array([0.2, 0.2]), BOX2, budget=30, method="safeopt", seed=0,
+                          signal_std=1.0, noise_std=1e-3, beta=5.0, n_local=256, n_global=64, **opts)
+    cal = r.info["calibration"]
+    assert len(cal["scores"]) >= 20 and r.n_unsafe == 0
+    # A smooth quadratic is predicted to within a fraction of σ at every query: the calibrated β falls to its floor
+    # (the fixed one stays at 5).
+    assert cal["beta"] == (2.0 if calibrate else 5.0)
+    assert np.quantile(cal["scores"], 0.95) < 2.0
+
+
+def test_a_model_that_overstates_never_earns_a_narrower_margin() -> None:
+    from ksbo_mav.opt.config import SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.3, signal_std=1.0, noise_std=0.01), 2)
+    bo = SafeBO(model, SafeBOConfig(beta=5.0, beta_min=2.0, beta_quantile=0.9, beta_margin=1.0,
+                                    beta_min_points=5, recommend_noise=None), np.ones(2, bool),
+                np.random.default_rng(0))
+    bo.fit(np.array([[0.5, 0.5]]), np.array([0.5]))
+    rng = np.random.default_rng(1)
+    for _ in range(8):  # a cliff the smooth GP does not expect: every query flies far below its prediction
+        p = bo.propose()
+        bo.observe(p.x, p.mu - 6.0 * max(p.sd, 1e-3) - 0.01 * rng.random())
+    s = bo.calibration.scores
+    assert len(s) >= 5 and np.quantile(s, 0.9) > 5.0
+    # the quantile is above the configured β, and the last bad flights widen it further (window 5, cap 10)
+    assert bo.beta == pytest.approx(min(10.0, max(5.0, np.quantile(s, 0.9), max(s[-5:]))))
+    assert bo.beta > 5.0

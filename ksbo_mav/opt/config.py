@@ -43,6 +43,12 @@ class SafeBOConfig:
         explore_from: ``"x0"`` (clouds grow from the start and the optimiser's own evaluations; prior points join
             once reached; no global points) or ``"all"``.
         exploit_beta: see ``exploit_last``.
+        beta_min: None = certify with the fixed ``beta``. A number: certify with a β calibrated on the run's own
+            one-step-ahead errors, ``beta_margin`` × their ``beta_quantile`` quantile clipped to [beta_min, beta],
+            once ``beta_min_points`` queries were scored, or ``beta_margin`` × the largest of the last
+            ``beta_window`` scores if larger, clipped to [beta_min, beta_cap] (None: beta) (opt.calibration). A
+            beta_min at or above beta keeps beta as the floor (only the widening after a bad flight acts).
+        beta_quantile, beta_margin, beta_min_points, beta_window, beta_cap: see ``beta_min``.
     """
 
     beta: float = 4.0
@@ -68,6 +74,13 @@ class SafeBOConfig:
     exclusion_radius: float = 0.05
     explore_from: str = "x0"
     exploit_beta: float = 0.0
+    beta_min: float | None = None
+    # The calibration measured in BENCHMARKS.md (issue 13, item S) with beta_min 4: an option, not a default.
+    beta_quantile: float = 0.95
+    beta_margin: float = 1.0
+    beta_min_points: int = 10
+    beta_window: int = 5
+    beta_cap: float | None = 10.0
 
 
 @dataclass(frozen=True)

@@ -38,7 +38,7 @@ def smoothed(bo: "SafeBO") -> tuple[np.ndarray, np.ndarray]:
         smooth = bo.model.variant(noise_std=bo.config.recommend_noise * bo.model.signal_std)
         smooth.fit(bo.X[bo.gp_mask], bo.y[bo.gp_mask])
         mu_s, sd_s = smooth.predict(bo.X)
-        mu, lcb = mu_s, mu_s - bo.config.beta * sd_s
+        mu, lcb = mu_s, mu_s - bo.beta * sd_s
     return mu, lcb
 
 

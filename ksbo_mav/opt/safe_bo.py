@@ -7,7 +7,7 @@ region is reachable in 9-D (pitfall 4). Two acquisition rules:
 
 * ``"ucb"`` — SafeCtrlBO's rule with its bug fixed: for the first ``expansion_iters`` *BO iterations* (not total
   observations, pitfall 3) the most uncertain safe candidate near the safety boundary is evaluated, afterwards the
-  safe UCB maximiser.
+  safe UCB maximiser (the phases, and the final exploitation: opt.phases).
 * ``"safeopt"`` — SafeOpt's rule: the widest confidence interval among the plausible maximisers
   M = {x ∈ S : UCB(x) ≥ max_S LCB} and the boundary points (SafeOptSwarm-style stand-in for SafeOpt's expanders,
   which would need one GP update per expander candidate).
@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ksbo_mav.opt.acquisition import (Acquisition, BoundaryExpansion, PosteriorMean, SafeOptRule, SafeUCB,
-                                      WidestFeasible)
-from ksbo_mav.opt import recommend, region, scale
+from ksbo_mav.opt.acquisition import BoundaryExpansion
+from ksbo_mav.opt import phases, recommend, region, scale
+from ksbo_mav.opt.calibration import BetaCalibration
 from ksbo_mav.opt.candidates import refine
 from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
 from ksbo_mav.opt.failure_model import FailureModel
@@ -39,8 +39,6 @@ from ksbo_mav.opt.trust_region import TrustRegion
 from ksbo_mav.opt.outcome import Outcome
 
 RULES = ("ucb", "safeopt")
-CONNECT_RADIUS = region.CONNECT_RADIUS
-EXPLOIT_SHARE = recommend.EXPLOIT_SHARE
 
 
 @dataclass
@@ -83,6 +81,7 @@ class SafeBO:
     ml_scale: np.ndarray | None = field(default=None, init=False)  # (d,) last marginal-likelihood lengthscales
     acq_model: SafetyModel | None = field(default=None, init=False)  # main GP stretched along flat dimensions
     noise_floor: float | None = field(default=None, init=False)  # the safety GP's fixed noise std (learnt above it)
+    calibration: BetaCalibration = field(init=False)  # one-step-ahead scores of the bound; the β they support
 
     def __post_init__(self) -> None:
         if self.config.rule not in RULES:
@@ -91,6 +90,9 @@ class SafeBO:
         self.y = np.zeros(0)
         self.complete = np.zeros(0, dtype=bool)
         self.crashed = np.zeros(0, dtype=bool)
+        c = self.config
+        self.calibration = BetaCalibration(c.beta, c.beta_min, c.beta_quantile, c.beta_margin, c.beta_min_points,
+                                           c.beta_window, c.beta_cap)
         a = self.adaptive
         if a.trust_region:
             self.tr = TrustRegion(a.tr_init, a.tr_min, a.tr_max, a.tr_grow, a.tr_shrink, a.tr_success)
@@ -163,6 +165,7 @@ class SafeBO:
         """
         self.iteration += 1
         done = outcome is Outcome.COMPLETE
+        self.calibration.observed(x, y)
         # A failure at new gains that the safety GP had certified (or the backup covered): the learnt scale
         # claimed too much smoothness here, so it shrinks (re-flights of flown gains say nothing about the scale).
         novel = not bool(np.all(self.X == np.asarray(x, float).reshape(1, -1), axis=1).any())
@@ -200,6 +203,24 @@ class SafeBO:
     def p_min(self) -> float:
         return self.model.p_min
 
+    @property
+    def beta(self) -> float:
+        """The safety β in force: the configured one, or the calibrated one (``beta_min``; opt.calibration)."""
+        return self.calibration.beta()
+
+    def _capped(self, Xc: np.ndarray, main: tuple[np.ndarray, np.ndarray] | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """Each model's capped mean and std at Xc (m, d) — the parts of the LCB; two (k, m) arrays (main model
+        first, then the safety model). ``main``: the main model's (mean, std) at Xc if already predicted."""
+        yc = self.y[self.gp_mask]
+        cap = yc.max() if self.config.cap_mean and yc.size else np.inf
+        if self.config.y_max is not None:
+            cap = min(cap, self.config.y_max)
+        pairs = [main if main is not None else self.model.predict(Xc)]
+        if self.safety_model is not None:
+            pairs.append(self.safety_model.predict(Xc))
+        return np.array([np.minimum(mu, cap) for mu, _ in pairs]), np.array([sd for _, sd in pairs])
+
     def bounds(self, Xc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Posterior mean, marginal std, LCB (safety β) and UCB (acquisition β) at Xc (m, d); four (m,) arrays.
 
@@ -210,15 +231,9 @@ class SafeBO:
         if self.config.y_max is not None:
             mu = np.minimum(mu, self.config.y_max)
         b_ucb = self.config.beta if self.config.beta_ucb is None else self.config.beta_ucb
-        beta = self.adaptive.backup_beta if self.relaxed else self.config.beta
-        yc = self.y[self.gp_mask]
-        cap = yc.max() if self.config.cap_mean and yc.size else np.inf
-        if self.config.y_max is not None:
-            cap = min(cap, self.config.y_max)
-        lcb = np.minimum(mu, cap) - beta * sd
-        if self.safety_model is not None:
-            mu_s, sd_s = self.safety_model.predict(Xc)
-            lcb = np.minimum(lcb, np.minimum(mu_s, cap) - beta * sd_s)
+        beta = self.adaptive.backup_beta if self.relaxed else self.beta
+        mu_c, sd_c = self._capped(Xc, (mu, sd))
+        lcb = np.min(mu_c - beta * sd_c, axis=0)
         if self.acq_model is not None:
             mu_a, sd_a = self.acq_model.predict(Xc)
             if self.config.y_max is not None:
@@ -244,33 +259,10 @@ class SafeBO:
         return ok
 
     # -- the step -----------------------------------------------------------------------------------------------
-    def n_exploit(self) -> int:
-        """Evaluations of the final exploitation phase (at most a fifth of the budget)."""
-        c = self.config
-        return min(c.exploit_last, self.budget // EXPLOIT_SHARE) if self.budget > 0 else c.exploit_last
-
-    def rule(self, C: np.ndarray, lcb_d: np.ndarray) -> Acquisition:
-        """The acquisition rule of this iteration (module docstring) for the candidate set C (m, d)."""
-        c = self.config
-        if self.remaining is not None and self.remaining <= self.n_exploit():
-            return PosteriorMean(self, c.exploit_beta)
-        if c.rule == "ucb":
-            n_expand = min(c.expansion_iters, self.budget // recommend.PHASE_SHARE) if self.budget > 0 \
-                else c.expansion_iters
-            if self.iteration >= n_expand:
-                return SafeUCB(self)
-            return BoundaryExpansion(self, self.p_min, c.boundary_tol * self.model.signal_std)
-        _, _, lcb, _ = self.bounds(C)
-        safe = self.feasible(C, lcb)
-        best_lcb = max(float(lcb[safe].max()),
-                       float(np.max(np.where((lcb_d >= self.p_min) & self.complete, lcb_d, -np.inf))))
-        rule = SafeOptRule(self, self.p_min, c.boundary_tol * self.model.signal_std, best_lcb)
-        return rule if rule(C)[1].any() else WidestFeasible(self)  # an observation's LCB beats every UCB
-
     def propose(self) -> Proposal:
         """Next query point (certified safe unless ``kind`` is "fallback" or ends in "/backup")."""
         a = self.adaptive
-        exploring = self.remaining is None or self.remaining > self.n_exploit()
+        exploring = phases.exploring(self)
         budget_left = a.max_aborts is None or self.aborts < a.max_aborts
         # The backup is trusted only until it fails once: after a crash (the backup did not recover) the plant's
         # failures are known to be too fast for it, and only certified points are flown.
@@ -290,7 +282,7 @@ class SafeBO:
             self.fallbacks += 1
             i = region.fallback_index(self, lcb_d)
             return Proposal(self.X[i].copy(), "fallback", float(mu_d[i]), float(sd_d[i]), float(lcb_d[i]))
-        rule = self.rule(C, lcb_d)
+        rule = phases.choose_rule(self, C, lcb_d)
         score, ok = rule(C)
         pool = rule.pool(C) if isinstance(rule, BoundaryExpansion) else ok
         score = np.where(pool, score, -np.inf)
@@ -304,6 +296,7 @@ class SafeBO:
             x = C[order[0]]
             m, s, lo, _ = self.bounds(x[None, :])
         kind = rule.kind
+        self.calibration.predicted(x, *(a[:, 0] for a in self._capped(x[None, :])))
         if self.relaxed:
             self.relaxed = False
             if not self.safe_mask(x[None, :])[0]:

@@ -145,6 +145,7 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
         bo.fit(X, y, done, crashed)
         log += run_safe_bo(problem, bo, after=after)
     info["proposals"] = log
+    info["calibration"] = {"scores": bo.calibration.scores, "beta": bo.beta}
     if len(selections) > 1:
         info["reselections"] = [s.as_dict() for s in selections[1:]]
         info["reselection_changes"] = sum(s.changed for s in selections[1:])
