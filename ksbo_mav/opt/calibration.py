@@ -12,7 +12,8 @@ scores exist (β itself before) — or ``margin ×`` the largest of the last ``w
 clipped to [``beta_min``, ``beta_cap``]: a model that keeps predicting well earns a narrower margin; a flight that
 came in far below its prediction widens it for the next ``window`` queries. Why the window: in strict-mode ksbo on
 the nominal planar plant, P < 0 flights came in bursts (three within four queries in 2 of 10 tuning runs); the
-window cut them 21 → 18 with the floor at 4 and 15 → 12 with the floor at β 5 (``beta_min`` = β) (BENCHMARKS.md, issue 13, item S).
+window cut them 21 → 18 with the floor at 4 and 15 → 12 with the floor at β 5 (``beta_min`` = β; BENCHMARKS.md,
+issue 13, item S).
 Off by default: with ``beta_min`` 4, ksbo re-flew a little better and flew more P < 0 trials.
 """
 
