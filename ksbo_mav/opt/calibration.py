@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ksbo_mav.opt.config import SafeBOConfig
+
 
 @dataclass
 class BetaCalibration:
@@ -39,13 +41,14 @@ class BetaCalibration:
         beta_cap: upper clip (at least ``beta_max``); None = ``beta_max``.
     """
 
+    # The defaults are SafeBOConfig's (one place holds each value; SafeBO passes its config's).
     beta_max: float
-    beta_min: float | None = None
-    quantile: float = 0.95
-    margin: float = 1.0
-    min_points: int = 10
-    window: int = 5
-    beta_cap: float | None = 10.0
+    beta_min: float | None = SafeBOConfig.beta_min
+    quantile: float = SafeBOConfig.beta_quantile
+    margin: float = SafeBOConfig.beta_margin
+    min_points: int = SafeBOConfig.beta_min_points
+    window: int = SafeBOConfig.beta_window
+    beta_cap: float | None = SafeBOConfig.beta_cap
     scores: list[float] = field(default_factory=list)
     _pending: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(default=None, repr=False)
 
