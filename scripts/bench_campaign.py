@@ -157,6 +157,9 @@ def run_one(setting: str, method: str, seed: int, args_d: dict) -> dict:
         "orders": list(res.orders) if res.orders else None, "dims": list(res.dims) if res.dims else None,
         "selection": jsonable(res.info.get("selection")),
         "reselection": jsonable(res.info.get("reselection")),
+        # the evidence re-selections of ksbo (every reselect_every iterations) and how many changed the orders
+        "reselections": jsonable(res.info.get("reselections")),
+        "reselection_changes": res.info.get("reselection_changes"),
         "seconds": res.seconds.tolist(), "s_per_iter": float(np.mean(res.seconds[1:])) if res.nfev > 1 else 0.0,
         "fallbacks": int(res.fallbacks), "wall": wall, "options": opts,
     }

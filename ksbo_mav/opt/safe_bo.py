@@ -227,6 +227,10 @@ class SafeBO:
         With a ``safety_model`` the LCB is the smaller of both models' bounds (a point must be certified by both);
         mean, std and UCB are the main model's. While :attr:`relaxed`, the LCB uses ``backup_beta``.
         """
+        return self._bounds_parts(Xc)[:4]
+
+    def _bounds_parts(self, Xc: np.ndarray) -> tuple[np.ndarray, ...]:
+        """:meth:`bounds` and the per-model capped means and stds it took the LCB from (two (k, m) arrays)."""
         mu, sd = self.model.predict(Xc)
         if self.config.y_max is not None:
             mu = np.minimum(mu, self.config.y_max)
@@ -238,8 +242,8 @@ class SafeBO:
             mu_a, sd_a = self.acq_model.predict(Xc)
             if self.config.y_max is not None:
                 mu_a = np.minimum(mu_a, self.config.y_max)
-            return mu, sd, lcb, mu_a + b_ucb * sd_a
-        return mu, sd, lcb, mu + b_ucb * sd
+            return mu, sd, lcb, mu_a + b_ucb * sd_a, mu_c, sd_c
+        return mu, sd, lcb, mu + b_ucb * sd, mu_c, sd_c
 
     def safe_mask(self, Xc: np.ndarray) -> np.ndarray:
         """(m,) bool: which of Xc may be queried (LCB ≥ p_min, outside every exclusion ball, ...)."""
@@ -291,12 +295,12 @@ class SafeBO:
         starts, s_ref = refine(rule, C[order], self.rng, c.refine_rounds, c.refine_samples, c.refine_scale,
                                free=self.free)
         x = starts[int(np.argmax(s_ref))]
-        m, s, lo, _ = self.bounds(x[None, :])
+        m, s, lo, _, mu_c, sd_c = self._bounds_parts(x[None, :])
         if not self.feasible(x[None, :], lo)[0]:  # cannot happen (refine only accepts feasible moves): a guard
             x = C[order[0]]
-            m, s, lo, _ = self.bounds(x[None, :])
+            m, s, lo, _, mu_c, sd_c = self._bounds_parts(x[None, :])
         kind = rule.kind
-        self.calibration.predicted(x, *(a[:, 0] for a in self._capped(x[None, :])))
+        self.calibration.predicted(x, mu_c[:, 0], sd_c[:, 0])
         if self.relaxed:
             self.relaxed = False
             if not self.safe_mask(x[None, :])[0]:
