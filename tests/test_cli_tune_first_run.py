@@ -32,6 +32,14 @@ def test_bad_options_refused_before_connecting_and_nothing_written(tmp_path, bad
     assert not d.exists()
 
 
+def test_demo_refuses_a_bad_method_before_starting_the_simulator(tmp_path):
+    d = tmp_path / "demo"
+    r = run("demo", "--method", "ksb", "--dir", str(d), cwd=tmp_path)
+    one_line_error(r, "unknown method 'ksb'", "ksbo-adaptive")
+    assert "starting the simulator" not in r.stdout  # nothing was started, flown or written
+    assert not d.exists() and not (tmp_path / "ksbo-demo-runs").exists()
+
+
 def test_failed_connection_leaves_no_directory(tmp_path):
     d = tmp_path / "camp"
     r = run("tune", str(d), "--udp", f"127.0.0.1:{free_udp_port()}", "--timeout", "1")

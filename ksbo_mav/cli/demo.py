@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import tempfile
 import time
 from pathlib import Path
@@ -34,6 +35,9 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_mav.mav.link import Endpoint
     from ksbo_mav.campaign import Campaign, CampaignConfig
 
+    # The settings are checked before anything starts: a bad --method is one line, not a flown baseline.
+    # (The directory is filled in once the simulator runs; validate does not look at it.)
+    checked = CampaignConfig(dir="", budget=args.budget, seed=args.seed, method=args.method, prior="sim").validate()
     port = free_udp_port()
     print(f"starting the simulator (lockstep), tuner listening on udp 127.0.0.1:{port} ...")
     try:
@@ -47,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             Path("ksbo-demo-runs").mkdir(exist_ok=True)
             d = Path(tempfile.mkdtemp(prefix=time.strftime("demo-%Y%m%d-%H%M%S-"), dir="ksbo-demo-runs"))
-        cfg = CampaignConfig(dir=str(d), budget=args.budget, seed=args.seed, method=args.method, prior="sim")
+        cfg = dataclasses.replace(checked, dir=str(d))
         display = Display(cfg.budget)
         camp = Campaign(cfg, Endpoint("udp", "127.0.0.1", port), log=display.log, progress=display.update)
         t = time.monotonic()
