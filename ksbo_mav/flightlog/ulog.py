@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +42,15 @@ class _CutDetector:
         return getattr(self.fh, name)
 
 
+def _pyulog_said(buf: io.StringIO) -> str:
+    """pyulog's own printed warnings, first few, as a suffix for our message ('' when it said nothing)."""
+    lines = [ln.strip() for ln in buf.getvalue().splitlines() if ln.strip()]
+    if not lines:
+        return ""
+    more = f" (+{len(lines) - 3} more)" if len(lines) > 3 else ""
+    return " (pyulog: " + "; ".join(lines[:3]) + more + ")"
+
+
 def read_ulg(p: Path, partial: bool = False) -> FlightLog:
     try:
         from pyulog import ULog
@@ -51,10 +62,13 @@ def read_ulg(p: Path, partial: bool = False) -> FlightLog:
         raise InputError(f"cannot read log {p}: {exc.strerror or exc}") from None
     size = p.stat().st_size
     wrap = _CutDetector(fh)
+    said = io.StringIO()  # pyulog print()s its warnings to stdout; `score` keeps stdout for the result (JSON)
     try:
-        ulog = ULog(wrap, ULG_TOPICS, disable_str_exceptions=True)
+        with contextlib.redirect_stdout(said):
+            ulog = ULog(wrap, ULG_TOPICS, disable_str_exceptions=True)
     except Exception as exc:  # pyulog raises ULogException, struct.error, IndexError... on a damaged header
-        raise InputError(f"PX4 ULog {p} is corrupted or truncated in its header/definitions: {exc}") from None
+        raise InputError(f"PX4 ULog {p} is corrupted or truncated in its header/definitions: {exc}"
+                         f"{_pyulog_said(said)}") from None
     finally:
         fh.close()
     topics = {d.name: d for d in ulog.data_list if d.multi_id == 0}
@@ -107,8 +121,8 @@ def read_ulg(p: Path, partial: bool = False) -> FlightLog:
         where = f" at offset {wrap.bad_at}" if wrap.bad_at is not None else ""
         if not partial:
             raise InputError(f"PX4 ULog {p} is corrupted{where}: damaged messages were skipped; pass --partial to "
-                             f"score what could be read")
-        log.warnings.append("pyulog reported corrupted data and skipped it")
+                             f"score what could be read{_pyulog_said(said)}")
+        log.warnings.append(f"pyulog reported corrupted data and skipped it{_pyulog_said(said)}")
     if wrap.short_at is not None:
         log.truncated_at = float(t[-1])
         log.info["truncated"] = f"ends inside a message at offset {wrap.short_at} of {size}"
