@@ -2,13 +2,16 @@
 strict), the JSBSim copter in both personalities (in process) and the ArduCopter / PX4 SITLs (full campaigns).
 
 One process, BLAS pinned to one thread; each run appends one JSON line to ``--out`` (so partial results survive
-and runs can be added later), ``report`` turns the lines into the BENCHMARKS.md section.
+and runs can be added later), ``report`` turns the lines into the BENCHMARKS.md section. The records are kept in
+the repository (``benchmarks/plants/records.jsonl``, with the section's hand-written notes in ``notes.md``) so that
+any later session can regenerate the section; the tables of the runs before 2026-12-01, whose records were lost
+with a checkout, are appended verbatim from ``tables-frozen-2026-12-01.md``.
 
     python scripts/bench_plants.py run --plants nominal,mass+30 --methods ksbo-adaptive --seeds 0-9 \
-        --mode monitor --budget 100 --out bench-runs/plants.jsonl
+        --mode monitor --budget 100 --tag "what changed"
     python scripts/bench_plants.py run --plants copter3d-ardupilot,copter3d-px4 --budget 30 --seeds 0-2
     python scripts/bench_plants.py run --plants sitl-ardupilot,sitl-px4 --budget 30 --seeds 0   # slow, idle machine
-    python scripts/bench_plants.py report bench-runs/plants.jsonl [--write NOTES.md]
+    python scripts/bench_plants.py report --write      # BENCHMARKS.md from notes.md + records.jsonl + frozen tables
 
 Per run: the recommendation is re-flown (planar: on the plant's 8 fixed initial conditions, in the run's mode, so a
 re-flight may abort or crash; copter: once, it is deterministic; SITL: 3 times, against 3 baseline re-flights)
@@ -30,6 +33,8 @@ from typing import Any
 import numpy as np
 
 SECTION = "Adaptive safe BO over a plant suite (issue 13)"
+DATA = Path(__file__).resolve().parent.parent / "benchmarks" / "plants"
+RECORDS, NOTES, FROZEN = DATA / "records.jsonl", DATA / "notes.md", DATA / "tables-frozen-2026-12-01.md"
 ORACLE = np.array([0.2367, 0.007699, 0.8752, 3.0, 0.000393, 2.662, 1.167e4, 88.22, 9777.0])
 
 
@@ -253,8 +258,9 @@ def report(recs: list[dict]) -> str:
                 f"{np.median(ab):.0f} [{max(ab)}] | {np.median(un):.0f} [{max(un)}] | {rf[1]}/{rf[2]} of "
                 f"{int(rf.sum())} | {np.median([r['s_per_iter'] for r in rs]):.2f} | {_rms(rs)} |")
         lines.append("")
-    lines += ["Best E[P] known per plant (how found):", ""]
-    lines += [f"- {p}: {v:.3f} ({how})" for p, (v, how) in best.items()]
+    if best:
+        lines += ["Best E[P] known per plant in these runs (how found):", ""]
+        lines += [f"- {p}: {v:.3f} ({how})" for p, (v, how) in best.items()]
     return "\n".join(lines)
 
 
@@ -275,12 +281,13 @@ def main(argv: list[str] | None = None) -> None:
                    help="the prior is `tune --prior local`'s design (around the baseline), not the whole box")
     r.add_argument("--opt", action="append", help="optimizer option key=JSON value")
     r.add_argument("--tag", default="")
-    r.add_argument("--out", default="bench-runs/plants.jsonl")
+    r.add_argument("--out", default=str(RECORDS), help="JSON lines to append to (default: the committed records)")
     p = sub.add_parser("report")
-    p.add_argument("file")
+    p.add_argument("file", nargs="?", default=str(RECORDS))
     p.add_argument("--tag", default=None, help="only runs with this tag")
-    p.add_argument("--write", metavar="NOTES.md", default=None,
-                   help="write the BENCHMARKS.md section (NOTES.md first, then the tables)")
+    p.add_argument("--write", metavar="NOTES.md", nargs="?", const=str(NOTES), default=None,
+                   help="write the BENCHMARKS.md section: NOTES.md (default: the committed notes), the tables of "
+                        "FILE, then the frozen tables of the runs before 2026-12-01")
     a = ap.parse_args(argv)
     if a.cmd == "run":
         cmd_run(a)
@@ -295,8 +302,12 @@ def main(argv: list[str] | None = None) -> None:
             from _bench_common import machine, write_section
 
             notes = Path(a.write).read_text().strip()
-            cmd = "`python scripts/bench_plants.py run …` then `report FILE --write NOTES`"
-            write_section(SECTION, f"{notes}\n\nMachine: {machine()}. Regenerate: {cmd}.\n\n{text}")
+            frozen = FROZEN.read_text().split("-->", 1)[-1].strip()
+            cmd = "`python scripts/bench_plants.py run …` then `report --write` (records, notes: benchmarks/plants/)"
+            write_section(SECTION, f"{notes}\n\nMachine: {machine()}. Regenerate: {cmd}.\n\n{text}\n\n"
+                                   f"#### Runs before 2026-12-01 03:00 UTC (frozen tables: their records were lost)\n\n"
+                                   f"These tables were generated on 2026-12-01 02:01 UTC (same machine) from 2016 run "
+                                   f"records that lived outside the repository; they are kept verbatim.\n\n{frozen}")
 
 
 if __name__ == "__main__":
