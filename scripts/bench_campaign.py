@@ -54,6 +54,12 @@ VARIANTS: dict[str, tuple[str, dict]] = {
     # The local safety GP's lengthscale of safeopt (0.07 instead of 0.05): reaches the basins of item U in the
     # paper setting (BENCHMARKS.md, issue 13, item W; an option, not a default).
     "ksbo-sls07": ("ksbo", {"safety_lengthscale": 0.07}),
+    "ksbo-sls06": ("ksbo", {"safety_lengthscale": 0.06}),
+    # ksbo's safety lengthscale before item X of issue 13 (0.05; 0.06 since).
+    "ksbo-sls05": ("ksbo", {"safety_lengthscale": 0.05}),
+    # A wider local safety GP that shrinks ×0.7 after each P < 0 flight at new gains (issue 13, item X).
+    "ksbo-sls07-shrink": ("ksbo", {"safety_lengthscale": 0.07, "unsafe_scale_shrink": 0.7}),
+    "ksbo-sls06-shrink": ("ksbo", {"safety_lengthscale": 0.06, "unsafe_scale_shrink": 0.7}),
 }
 ALL_NAMES = ALL_METHODS + tuple(VARIANTS)
 

@@ -406,6 +406,46 @@ def test_a_failure_at_new_gains_shrinks_the_learnt_safety_scale_a_failed_refligh
     assert bo.scale_factor == 0.5
 
 
+def test_an_unsafe_flight_at_new_gains_shrinks_a_fixed_safety_scale_a_safe_one_or_a_reflight_does_not() -> None:
+    """Strict mode (no monitor, no learnt scale): ``unsafe_scale_shrink`` multiplies the fixed lengthscale of the
+    local safety GP per completed flight below p_min at new gains; a safe flight and an unsafe re-flight of flown
+    gains leave it. The additive main GP keeps its own lengthscale."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    rng = np.random.default_rng(1)
+    X = 0.4 + 0.2 * rng.random((12, 3))
+    y = 0.5 + 0.3 * np.sin(3 * X[:, 0]) * np.cos(2 * X[:, 1])
+
+    def state(shrink: float) -> SafeBO:
+        model = SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 3)
+        safety = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.06, signal_std=1.0, noise_std=0.01), 3)
+        bo = SafeBO(model, SafeBOConfig(), np.ones(3, bool), np.random.default_rng(0), safety_model=safety,
+                    adaptive=AdaptiveConfig(unsafe_scale_shrink=shrink))
+        bo.fit(X, y)
+        return bo
+
+    bo, ref = state(0.7), state(1.0)
+    for b in (bo, ref):
+        b.observe(np.array([0.45, 0.5, 0.55]), 0.4)  # safe, new gains
+    assert bo.scale_factor == 1.0 and bo.safety_model.spec.lengthscale == 0.06
+    for b in (bo, ref):
+        b.observe(np.array([0.7, 0.7, 0.7]), -0.5)  # unsafe, new gains
+    np.testing.assert_allclose(bo.safety_model.spec.lengthscale, [0.042] * 3)
+    assert ref.safety_model.spec.lengthscale == 0.06 and ref.scale_factor == 1.0
+    assert bo.model.spec.lengthscale == 0.1
+    bo.observe(np.array([0.7, 0.7, 0.7]), -0.6)  # the same gains again: no new information on the scale
+    np.testing.assert_allclose(bo.safety_model.spec.lengthscale, [0.042] * 3)
+    bo.observe(np.array([0.3, 0.7, 0.7]), -0.2)  # unsafe at new gains again
+    np.testing.assert_allclose(bo.safety_model.spec.lengthscale, [0.0294] * 3)
+    # the shrunk GP is the one that certifies: its posterior is that of a fresh fit at the shrunk scale
+    fresh = SafetyModel(ModelSpec(orders=(3,), lengthscale=(0.0294,) * 3, signal_std=1.0, noise_std=0.01), 3)
+    fresh.fit(bo.X, bo.y)
+    Z = rng.random((5, 3))
+    np.testing.assert_allclose(bo.safety_model.predict(Z)[0], fresh.predict(Z)[0], atol=1e-9)
+
+
 def test_a_refly_candidate_that_fails_is_not_flown_again() -> None:
     """Re-fly phase of 6 flights over 2 candidates: B aborts at its first re-flight, so the rest go to A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig

@@ -121,6 +121,9 @@ class AdaptiveConfig:
             radius (opt.region.exclusion_radii); 1 = fixed balls. Fallbacks then avoid the balls too.
         failure_scale_shrink: each trial at new gains that aborts or crashes multiplies the learnt safety
             lengthscales by this (a certified point failed: the GP claimed too much smoothness); 1 = off.
+        unsafe_scale_shrink: the same for a completed trial at new gains that scored below p_min (the strict
+            mode's unsafe flight), applied to the fixed safety lengthscale too (``learn_safety_scale`` off): the
+            plant is less smooth than assumed there; 1 = off.
         ard_acquisition: > 0: the UCB (and the candidate anchors) come from a copy of the main GP whose base
             lengthscale along each dimension is raised to ``ard_acquisition`` × the learnt safety lengthscale
             there, so a step along a dimension the data show to be flat earns little uncertainty bonus. Safety (the
@@ -153,6 +156,7 @@ class AdaptiveConfig:
     exclusion_growth: float = 1.0
     exclusion_max: float = 0.2
     failure_scale_shrink: float = 1.0
+    unsafe_scale_shrink: float = 1.0
     ard_acquisition: float = 0.0
     safety_noise_max: float = 0.0
 

@@ -79,6 +79,7 @@ class SafeBO:
     refly_set: np.ndarray | None = field(default=None, init=False)  # (k,) data indices re-flown (opt.runner)
     scale_factor: float = field(default=1.0, init=False)  # learnt safety scale × this (shrinks on new failures)
     ml_scale: np.ndarray | None = field(default=None, init=False)  # (d,) last marginal-likelihood lengthscales
+    fixed_scale: np.ndarray | None = field(default=None, init=False)  # (d,) configured scale, once it shrank
     acq_model: SafetyModel | None = field(default=None, init=False)  # main GP stretched along flat dimensions
     noise_floor: float | None = field(default=None, init=False)  # the safety GP's fixed noise std (learnt above it)
     calibration: BetaCalibration = field(init=False)  # one-step-ahead scores of the bound; the β they support
@@ -171,6 +172,10 @@ class SafeBO:
         novel = not bool(np.all(self.X == np.asarray(x, float).reshape(1, -1), axis=1).any())
         if not done and novel and self.adaptive.failure_scale_shrink < 1.0:
             self.scale_factor *= self.adaptive.failure_scale_shrink
+        # Strict mode: an unsafe (P < p_min) flight at new gains is the same evidence without a monitor.
+        shrunk = done and novel and y < self.p_min and self.adaptive.unsafe_scale_shrink < 1.0
+        if shrunk:
+            self.scale_factor *= self.adaptive.unsafe_scale_shrink
         best_before = float(np.max(self.y[self.complete], initial=-np.inf))
         self.X = np.vstack([self.X, np.asarray(x, float).reshape(1, -1)])
         self.y = np.append(self.y, float(y))
@@ -182,8 +187,8 @@ class SafeBO:
         every = max(a.scale_refit_every, self.y.size // 20) if a.scale_refit_every > 0 else 0
         learn = a.learn_safety_scale and every > 0 and (self.iteration <= 4 * a.scale_refit_every
                                                          or self.iteration % every == 0)
-        if learn or (k and self.iteration % k == 0) or (not done and (self.failures is not None
-                                                                      or a.failure_scale_shrink < 1.0)):
+        if learn or shrunk or (k and self.iteration % k == 0) or (not done and (self.failures is not None
+                                                                                or a.failure_scale_shrink < 1.0)):
             self._refit(learn=learn)
         else:
             if done or not a.censor_aborts:

@@ -23,14 +23,15 @@ if TYPE_CHECKING:
 def refits(bo: "SafeBO", learn: bool, n: int) -> bool:
     """Whether :func:`relearn` with ``learn`` on ``n`` completed trials refits its target (so an earlier fit of
     the target in the same refit is wasted once its signal and noise scales are fixed)."""
-    has_scale = bo.ml_scale is not None or (learn and n >= 2)
+    fixed = not bo.adaptive.learn_safety_scale and bo.scale_factor < 1.0  # a shrunk fixed scale
+    has_scale = bo.ml_scale is not None or (learn and n >= 2) or fixed
     return has_scale and (learn or bo.scale_factor < 1.0)
 
 
 def relearn(bo: "SafeBO", target: SafetyModel, Xc: np.ndarray, yc: np.ndarray, learn: bool) -> None:
     """Refit ``target``'s lengthscales on the completed trials Xc (n, d), yc (n,) when ``learn`` (ML-II, warm
-    started), then apply the learnt scale × ``bo.scale_factor`` to it (also without a new fit once the factor
-    shrank; nothing when :func:`refits` says no)."""
+    started), then apply the learnt scale (or, never learnt, the configured one) × ``bo.scale_factor`` to it (also
+    without a new fit once the factor shrank; nothing when :func:`refits` says no)."""
     if not refits(bo, learn, yc.size):
         return
     a = bo.adaptive
@@ -45,7 +46,12 @@ def relearn(bo: "SafeBO", target: SafetyModel, Xc: np.ndarray, yc: np.ndarray, l
         bo.ml_scale, target.noise_std = learn_scales(
             Xc, yc - bo.p_min, target.signal_std, bo.noise_floor, start, a.safety_scale_prior,
             a.safety_scale_bounds, bo.rng, a.scale_extent_factor, restarts, noise_max)
-    ls = np.maximum(bo.ml_scale * bo.scale_factor, a.safety_scale_bounds[0])
+    base = bo.ml_scale
+    if base is None:  # no ML-II fit (a fixed safety scale): shrink the configured lengthscale
+        if bo.fixed_scale is None:
+            bo.fixed_scale = np.broadcast_to(np.asarray(target.spec.lengthscale, float), (bo.model.dim,)).copy()
+        base = bo.fixed_scale
+    ls = np.maximum(base * bo.scale_factor, a.safety_scale_bounds[0])
     target.spec = target.spec.with_(lengthscale=tuple(float(v) for v in ls))
     target.fit(Xc, yc)
     bo.scale_history.append([float(v) for v in ls])
