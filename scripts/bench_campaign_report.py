@@ -181,8 +181,8 @@ def report(args) -> None:
              "over seeds). Unsafe = P < 0. s/iter = optimiser time per evaluation, simulator excluded.",
              f"Options: `{json.dumps(METHOD_OPTIONS)}`; ksbo's library defaults differ from the other safe "
              "methods in `max_order` 4 (orders selected among 1..4, re-selected by evidence every 10 iterations) "
-             "`beta` 5 and the local safety GP's lengthscale 0.06 (0.05 before 2026-12-01; "
-             "`opt.options.METHOD_DEFAULTS`). "
+             "`beta` 5 and the local safety GP's lengthscale 0.06, shrunk ×0.7 after each P < 0 flight at new "
+             "gains (0.05 and fixed before 2026-12-01, issue 13 item X; `opt.options.METHOD_DEFAULTS`). "
              "Variants: " + "; ".join(f"`{k}` = {m} with `{json.dumps(o)}`" for k, (m, o) in VARIANTS.items()) + ".",
              ""]
     for setting, title in (("vehicle", "Vehicle-safe setting: a0 + local prior, 100 flights in total"),
