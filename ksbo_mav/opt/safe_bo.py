@@ -173,7 +173,8 @@ class SafeBO:
         if not done and novel and self.adaptive.failure_scale_shrink < 1.0:
             self.scale_factor *= self.adaptive.failure_scale_shrink
         # Strict mode: an unsafe (P < p_min) flight at new gains is the same evidence without a monitor.
-        shrunk = done and novel and y < self.p_min and self.adaptive.unsafe_scale_shrink < 1.0
+        shrunk = (done and novel and y < self.p_min and self.adaptive.unsafe_scale_shrink < 1.0
+                  and self._scale_model() is not None)
         if shrunk:
             self.scale_factor *= self.adaptive.unsafe_scale_shrink
         best_before = float(np.max(self.y[self.complete], initial=-np.inf))
