@@ -62,6 +62,7 @@ VARIANTS: dict[str, tuple[str, dict]] = {
     "ksbo-sls06": ("ksbo", {"safety_lengthscale": 0.06, "unsafe_scale_shrink": 1.0}),
     "ksbo-sls05": ("ksbo", {"safety_lengthscale": 0.05, "unsafe_scale_shrink": 1.0}),
     "ksbo-sls07-shrink": ("ksbo", {"safety_lengthscale": 0.07, "unsafe_scale_shrink": 0.7}),
+    "ksbo-sls06-shrink": ("ksbo", {"safety_lengthscale": 0.06, "unsafe_scale_shrink": 0.7}),  # = ksbo since item X
 }
 ALL_NAMES = ALL_METHODS + tuple(VARIANTS)
 
