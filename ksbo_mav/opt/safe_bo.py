@@ -167,16 +167,19 @@ class SafeBO:
         self.iteration += 1
         done = outcome is Outcome.COMPLETE
         self.calibration.observed(x, y)
-        # A failure at new gains that the safety GP had certified (or the backup covered): the learnt scale
+        # A failure at new gains that the safety GP had certified (or the backup covered): the safety scale
         # claimed too much smoothness here, so it shrinks (re-flights of flown gains say nothing about the scale).
+        # In strict mode an unsafe (P < p_min) completed flight is the same evidence without a monitor.
+        if not done:
+            shrink = self.adaptive.failure_scale_shrink
+        elif y < self.p_min and self._scale_model() is not None:
+            shrink = self.adaptive.unsafe_scale_shrink
+        else:
+            shrink = 1.0
         novel = not bool(np.all(self.X == np.asarray(x, float).reshape(1, -1), axis=1).any())
-        if not done and novel and self.adaptive.failure_scale_shrink < 1.0:
-            self.scale_factor *= self.adaptive.failure_scale_shrink
-        # Strict mode: an unsafe (P < p_min) flight at new gains is the same evidence without a monitor.
-        shrunk = (done and novel and y < self.p_min and self.adaptive.unsafe_scale_shrink < 1.0
-                  and self._scale_model() is not None)
+        shrunk = novel and shrink < 1.0
         if shrunk:
-            self.scale_factor *= self.adaptive.unsafe_scale_shrink
+            self.scale_factor *= shrink
         best_before = float(np.max(self.y[self.complete], initial=-np.inf))
         self.X = np.vstack([self.X, np.asarray(x, float).reshape(1, -1)])
         self.y = np.append(self.y, float(y))
