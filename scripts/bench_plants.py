@@ -284,6 +284,10 @@ def report(recs: list[dict]) -> str:
                 f"{np.median(ab):.0f} [{max(ab)}] | {np.median(un):.0f} [{max(un)}] | {rf[1]}/{rf[2]} of "
                 f"{int(rf.sum())} | {np.median([r['s_per_iter'] for r in rs]):.2f} | {_rms(rs)} |")
         lines.append("")
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from _bench_paired import paired_report
+
+    lines += paired_report(recs)
     if best:
         lines += ["Best E[P] known per plant (how found; the frozen tables' values count too):", ""]
         lines += [f"- {p}: {v:.3f} ({how})" for p, (v, how) in best.items()]
