@@ -1,5 +1,6 @@
-"""The benchmark scripts: the campaign runner / report / overhead split imports cleanly, and regenerating a
-report section leaves the hand-written observations in BENCHMARKS.md alone."""
+"""The benchmark scripts: the campaign runner / report / overhead split imports cleanly, regenerating a report
+section leaves the hand-written observations in BENCHMARKS.md alone, and the plant suite's paired comparison calls
+a plant ahead / level / behind from the per-seed differences."""
 
 from __future__ import annotations
 
@@ -8,18 +9,52 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = ROOT / "scripts"
 
 
-@pytest.mark.parametrize("script", ["bench_campaign.py", "bench_campaign_report.py"])
-def test_campaign_scripts_start(script):
+@pytest.mark.parametrize(("script", "flag"), [("bench_campaign.py", "--out"), ("bench_campaign_report.py", "--out"),
+                                              ("bench_plants.py", "report"), ("diag_oracle_ray.py", "--plot")])
+def test_bench_scripts_start(script, flag):
     r = subprocess.run([sys.executable, str(SCRIPTS / script), "--help"], capture_output=True, text=True,
                        timeout=120, cwd=ROOT)
     assert r.returncode == 0, r.stderr
-    assert "--out" in r.stdout
+    assert flag in r.stdout
+
+
+def _load(name: str):
+    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_paired_comparison_verdicts():
+    paired = _load("_bench_paired")
+    rng = np.random.default_rng(0)
+    recs = []
+    for seed in range(12):
+        base = {"nominal": 0.9, "gusts": 0.7, "delay 40ms": 0.4}
+        noise = {p: rng.normal(0, 0.01) for p in base}
+        for method, shift in (("ksbo", {"nominal": 0.05, "gusts": -0.05, "delay 40ms": 0.0}), ("standard", {})):
+            for plant, v in base.items():
+                jitter = rng.normal(0, 0.01) if plant == "delay 40ms" else 0.0
+                recs.append({"method": method, "plant": plant, "seed": seed, "mode": "strict", "n_prior": 36,
+                             "budget": 150, "tag": "", "EP": v + noise[plant] + shift.get(plant, 0.0) + jitter,
+                             "n_unsafe": 1 if method == "ksbo" else 0, "n_crashed": 0})
+    rows = {row[0]: row for row in paired.paired_rows(recs, "ksbo", "standard")}
+    assert rows["nominal"][7] == "ahead" and rows["nominal"][4:6] == (12, 0)
+    assert rows["gusts"][7] == "behind" and rows["gusts"][2] == pytest.approx(-0.05)
+    assert rows["delay 40ms"][7] == "level"
+    assert rows["nominal"][8] == "12/0"  # P < 0 flights ksbo / standard
+    text = "\n".join(paired.paired_report(recs))
+    assert "ahead on 1, level on 1, behind on 1 of 3 plants" in text
+    # fewer than 5 common seeds: no row; a tagged run is not a default and is left out
+    assert paired.paired_rows(recs[:6 * 4], "ksbo", "standard") == []
+    assert paired.paired_report([{**r, "tag": "x"} for r in recs]) == []
 
 
 def test_report_section_rewrite_keeps_the_hand_written_observations(tmp_path, monkeypatch):
@@ -35,3 +70,13 @@ def test_report_section_rewrite_keeps_the_hand_written_observations(tmp_path, mo
     obs = text.split("## Safe BO campaign: observations (issue 5)")[1].split("\n## ")[0]
     assert "Why ≥ 0.95 is out of reach here" in obs
     assert "Observations:" not in (SCRIPTS / "bench_campaign_report.py").read_text()  # prose lives in the .md
+
+
+def test_best_known_counts_the_frozen_tables():
+    plants = _load("bench_plants")
+    frozen = plants.frozen_best()
+    assert len(frozen) >= 10 and all(-1.0 <= v <= 1.0 for v, _ in frozen.values())
+    assert frozen["delay 40ms"][0] == pytest.approx(0.953) and "record lost" in frozen["delay 40ms"][1]
+    # a planar plant's best known is at least the frozen value (and the oracle's re-flight)
+    best = plants.best_known([{"plant": "delay 40ms", "EP": 0.4, "method": "ksbo", "mode": "strict", "seed": 0}])
+    assert best["delay 40ms"][0] == pytest.approx(0.953)
