@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 import time
 from pathlib import Path
@@ -33,10 +32,9 @@ from typing import Any
 
 import numpy as np
 
-SECTION = "Adaptive safe BO over a plant suite (issue 13)"
-DATA = Path(__file__).resolve().parent.parent / "benchmarks" / "plants"
-RECORDS, NOTES, FROZEN = DATA / "records.jsonl", DATA / "notes.md", DATA / "tables-frozen-2026-12-01.md"
-ORACLE = np.array([0.2367, 0.007699, 0.8752, 3.0, 0.000393, 2.662, 1.167e4, 88.22, 9777.0])
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _bench_plants_report import (  # noqa: E402,F401 - the report's names, also used by other scripts and tests
+    FROZEN, NOTES, ORACLE, RECORDS, SECTION, SITL_PLANTS, best_known, frozen_best, report)
 
 
 def _seeds(text: str) -> list[int]:
@@ -68,7 +66,6 @@ def _objective(plant: str, seed: int, monitor: bool) -> tuple[Any, np.ndarray, n
 
 
 #: SITL plants: a full `ksbo-mav tune` campaign from the ground on a fresh SITL (scripts/bench_sitl_campaign.py).
-SITL_PLANTS = {"sitl-ardupilot": "ardupilot", "sitl-px4": "px4"}
 
 
 def run_sitl(plant: str, method: str, seed: int, budget: int, options: dict[str, Any], n_prior: int = 0
@@ -76,7 +73,6 @@ def run_sitl(plant: str, method: str, seed: int, budget: int, options: dict[str,
     """One campaign on a SITL: E[P] is the recommendation's mean lap-2 RMS over its 3 re-flights against the
     baseline's mean over 3 re-flights after the campaign, on the campaign's own scale P = 1 − RMS / (2 RMS_base).
     ``n_prior`` > 0: `tune --prior local --n-prior n_prior` (flown around the baseline before the optimiser)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
     from bench_sitl_campaign import run_one as sitl_campaign
 
     row = sitl_campaign(SITL_PLANTS[plant], seed, budget, instance=7, method=method,
@@ -182,118 +178,6 @@ def compact(value: Any, digits: int = 4) -> Any:
     return value
 
 
-def _med(v: list[float]) -> str:
-    return f"{np.median(v):.3f} [{min(v):.3f}, {max(v):.3f}]" if v else "–"
-
-
-def frozen_best() -> dict[str, tuple[float, str]]:
-    """Per plant: the best E[P] the frozen tables list (runs before 2026-12-01 whose records were lost)."""
-    if not FROZEN.exists():
-        return {}
-    text = FROZEN.read_text().split("Best E[P] known per plant", 1)[-1]
-    found = re.findall(r"^- (.+?): (-?[0-9.]+) \((.+)\)$", text, flags=re.M)
-    return {plant: (float(v), f"{how}, frozen tables: record lost") for plant, v, how in found}
-
-
-def best_known(recs: list[dict]) -> dict[str, tuple[float, str]]:
-    """Per plant: best re-flown E[P] over the runs in the file, the frozen tables' best (:func:`frozen_best`) and a
-    reference flown here — the nominal oracle gains (planar) or the baseline with the horizontal position P gain
-    (and the velocity P gain) at the top of the search box (copter; the issue's "PSC_POSXY_P 1.75 + PSC_VELXY_P 3.5"
-    and "MPC_XY_P 1.9 alone")."""
-    from ksbo_mav.copter_objective import COPTER_PLANTS, CopterObjective
-    from ksbo_mav.objective import SimObjective
-
-    best: dict[str, tuple[float, str]] = {}
-    for plant in sorted({r["plant"] for r in recs}):
-        if plant in SITL_PLANTS:
-            best[plant] = (-np.inf, "")
-        elif plant in COPTER_PLANTS:
-            obj = CopterObjective(plant)
-            X = np.tile(obj.baseline, (2, 1))
-            X[0, 0] = obj.bounds[0, 1]
-            X[1, :2] = obj.bounds[:2, 1]
-            P, _ = obj.expected_outcomes(X)
-            P = np.where(np.isfinite(P), P, -np.inf)
-            how = ("baseline with the NE position P gain at the box top",
-                   "baseline with the NE position and velocity P gains at the box top")
-            best[plant] = (float(P.max()), how[int(np.argmax(P))])
-        else:
-            P, _ = SimObjective(plant=plant).expected_outcomes(ORACLE)
-            best[plant] = (float(P[0]), "nominal oracle gains re-flown (strict)")
-        for r in recs:
-            if r["plant"] == plant and r["EP"] > best[plant][0]:
-                best[plant] = (r["EP"], f"{r['method']} {r['mode']} seed {r['seed']} recommendation")
-        old = frozen_best().get(plant)
-        if old is not None and old[0] > best[plant][0] + 5e-4:  # the frozen values are rounded to 3 decimals
-            best[plant] = old
-    return best
-
-
-def _rms(rs: list[dict]) -> str:
-    """Copter plants: re-flown lap-2 RMS change against the baseline, median [min, max] (NaN = not complete)."""
-    v = [r.get("rms_change") for r in rs]
-    if all(x is None for x in v):
-        return "–"
-    v = [np.nan if x is None else 100 * x for x in v]
-    return f"{np.nanmedian(v):+.0f} % [{np.nanmin(v):+.0f}, {np.nanmax(v):+.0f}]" + \
-        (f", {sum(np.isnan(v))} not complete" if any(np.isnan(v)) else "")
-
-
-#: Tag words of runs made with superseded defaults: their tables go to the end of the report, under one heading.
-ARCHIVED = ("(before", "(previous")
-
-
-def archived(tag: str) -> bool:
-    """Whether runs with this tag were made with superseded defaults (tag ends in "(before …)"/"(previous …)")."""
-    return any(w in tag for w in ARCHIVED)
-
-
-def report(recs: list[dict]) -> str:
-    best = best_known(recs)
-    keys = sorted({(r["tag"] or "", r["mode"], r["method"], r["n_prior"], r["budget"]) for r in recs},
-                  key=lambda k: (archived(k[0]), k))
-    lines = []
-    heading = False
-    for tag, mode, method, n_prior, budget in keys:
-        if archived(tag) and not heading:
-            heading = True
-            lines += ["#### Earlier generations (superseded defaults, kept for comparison)", ""]
-        local = any((r.get("local_prior") or r["plant"] in SITL_PLANTS) for r in recs
-                    if (r["tag"] or "", r["n_prior"], r["budget"]) == (tag, n_prior, budget))
-        design = "%d LHS around the baseline (`tune --prior local`) + " if local else "%d LHS + "
-        setting = f"{mode}, {design % n_prior if n_prior else 'from a0, '}{budget} flights" + \
-                  (f", {tag}" if tag else "")
-        lines += [f"**{method}** — {setting}", "",
-                  "| plant | seeds | re-flown E[P] median [min, max] | % of best known | seeds 0 crashes "
-                  "| crashes total | aborts median [max] | P<0 flights median [max] | re-flights aborted/crashed "
-                  "| s/iter | copter: lap-2 RMS vs baseline |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|"]
-        for plant in sorted({r["plant"] for r in recs}, key=lambda p: (p != "nominal", p)):
-            rs = [r for r in recs if (r["tag"] or "", r["mode"], r["method"], r["n_prior"], r["budget"])
-                  == (tag, mode, method, n_prior, budget) and r["plant"] == plant]
-            if not rs:
-                continue
-            ep = [r["EP"] if np.isfinite(r["EP"]) else -1.0 for r in rs]  # a re-flight that aborted: -1
-            b = best[plant][0]
-            rf = np.sum([r["reflown_counts"] for r in rs], axis=0)
-            ab = [r["n_aborted"] for r in rs]
-            un = [r["n_unsafe"] for r in rs]
-            lines.append(
-                f"| {plant} | {len(rs)} | {_med(ep)} | {100 * np.median(ep) / b:.0f} % | "
-                f"{sum(r['n_crashed'] == 0 for r in rs)}/{len(rs)} | {sum(r['n_crashed'] for r in rs)} | "
-                f"{np.median(ab):.0f} [{max(ab)}] | {np.median(un):.0f} [{max(un)}] | {rf[1]}/{rf[2]} of "
-                f"{int(rf.sum())} | {np.median([r['s_per_iter'] for r in rs]):.2f} | {_rms(rs)} |")
-        lines.append("")
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from _bench_paired import paired_report
-
-    lines += paired_report(recs)
-    if best:
-        lines += ["Best E[P] known per plant (how found; the frozen tables' values count too):", ""]
-        lines += [f"- {p}: {v:.3f} ({how})" for p, (v, how) in best.items()]
-    return "\n".join(lines)
-
-
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -328,7 +212,6 @@ def main(argv: list[str] | None = None) -> None:
         text = report(recs)
         print(text)
         if a.write:
-            sys.path.insert(0, str(Path(__file__).resolve().parent))
             from _bench_common import machine, write_section
 
             notes = Path(a.write).read_text().strip()
