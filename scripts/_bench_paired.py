@@ -5,7 +5,9 @@ Medians of 20 runs move by a few hundredths from seed to seed, so a median compa
 noise. Runs of two methods with the same plant, seed and setting share their LHS prior and initial conditions, so
 their per-seed difference is the fairer measure: its mean ± standard error, wins/losses, and the two-sided Wilcoxon
 signed-rank p-value. A plant is *ahead* / *behind* when p < 0.05 (each plant and baseline tested alone: with 20
-tests, one false call at that level is expected by chance), otherwise *level*.
+tests, one false call at that level is expected by chance), otherwise *level*. The test ranks the differences, so
+a plant can be *ahead* with a mean difference near zero when most seeds gain a little and one loses a lot: the
+table gives the median difference too.
 """
 
 from __future__ import annotations
@@ -24,8 +26,8 @@ def _ep(r: dict) -> float:
 
 def paired_rows(recs: list[dict], ref: str, other: str) -> list[tuple]:
     """Per plant: (plant, n, mean difference ref − other, its standard error, wins, losses, p, verdict, P < 0
-    flights ref/other, crashes ref/other) over the seeds both methods flew. ``recs`` must be one setting (mode,
-    prior, budget, tag)."""
+    flights ref/other, crashes ref/other, median difference) over the seeds both methods flew. ``recs`` must be one
+    setting (mode, prior, budget, tag)."""
     by: dict[tuple[str, str], dict[int, float]] = defaultdict(dict)
     bad: dict[tuple[str, str], dict[int, tuple[int, int]]] = defaultdict(dict)
     for r in recs:
@@ -43,7 +45,8 @@ def paired_rows(recs: list[dict], ref: str, other: str) -> list[tuple]:
         ua, ca = np.sum([bad[(ref, plant)][s] for s in seeds], axis=0)
         ub, cb = np.sum([bad[(other, plant)][s] for s in seeds], axis=0)
         rows.append((plant, len(seeds), float(d.mean()), float(d.std(ddof=1) / np.sqrt(len(d))),
-                     int(np.sum(d > 0)), int(np.sum(d < 0)), p, verdict, f"{ua}/{ub}", f"{ca}/{cb}"))
+                     int(np.sum(d > 0)), int(np.sum(d < 0)), p, verdict, f"{ua}/{ub}", f"{ca}/{cb}",
+                     float(np.median(d))))
     return rows
 
 
@@ -65,8 +68,8 @@ def paired_report(recs: list[dict], ref: str = "ksbo") -> list[str]:
         lines += [f"**Paired: `{ref}` against each method on the same seeds** — {setting}. Difference of re-flown "
                   f"E[P] per seed, mean ± standard error; wins/losses; Wilcoxon signed-rank p (two-sided); verdict at "
                   f"p < {ALPHA} (scripts/_bench_paired.py).", "",
-                  "| plant | " + " | ".join(f"vs `{m}`: n, mean ± se, wins/losses, p, verdict; P<0 flights, crashes "
-                                          f"({ref}/{m})" for m in tables) + " |",
+                  "| plant | " + " | ".join(f"vs `{m}`: n, mean ± se (median), wins/losses, p, verdict; P<0 flights, "
+                                          f"crashes ({ref}/{m})" for m in tables) + " |",
                   "|---|" + "---|" * len(tables)]
         plants = [row[0] for row in next(iter(tables.values()))]
         for plant in plants:
@@ -74,8 +77,8 @@ def paired_report(recs: list[dict], ref: str = "ksbo") -> list[str]:
             for t in tables.values():
                 row = next((x for x in t if x[0] == plant), None)
                 cells.append("–" if row is None else
-                             f"{row[1]}, {row[2]:+.3f} ± {row[3]:.3f}, {row[4]}/{row[5]}, {row[6]:.2f}, **{row[7]}**; "
-                             f"{row[8]}, {row[9]}")
+                             f"{row[1]}, {row[2]:+.3f} ± {row[3]:.3f} ({row[10]:+.3f}), {row[4]}/{row[5]}, "
+                             f"{row[6]:.2f}, **{row[7]}**; {row[8]}, {row[9]}")
             lines.append(f"| {plant} | " + " | ".join(cells) + " |")
         for m, t in tables.items():
             count = {v: sum(row[7] == v for row in t) for v in ("ahead", "level", "behind")}
