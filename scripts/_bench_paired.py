@@ -20,8 +20,9 @@ from scipy.stats import wilcoxon
 ALPHA = 0.05
 
 
-def _ep(r: dict) -> float:
-    return r["EP"] if np.isfinite(r["EP"]) else -1.0  # a re-flight that aborted: -1, as in the tables
+def reflown_ep(r: dict) -> float:
+    """A record's re-flown E[P]; -1 when the re-flight aborted (NaN), as in the report's tables."""
+    return r["EP"] if np.isfinite(r["EP"]) else -1.0
 
 
 def paired_rows(recs: list[dict], ref: str, other: str) -> list[tuple]:
@@ -31,7 +32,7 @@ def paired_rows(recs: list[dict], ref: str, other: str) -> list[tuple]:
     by: dict[tuple[str, str], dict[int, float]] = defaultdict(dict)
     bad: dict[tuple[str, str], dict[int, tuple[int, int]]] = defaultdict(dict)
     for r in recs:
-        by[(r["method"], r["plant"])][r["seed"]] = _ep(r)
+        by[(r["method"], r["plant"])][r["seed"]] = reflown_ep(r)
         bad[(r["method"], r["plant"])][r["seed"]] = (r["n_unsafe"], r["n_crashed"])
     rows = []
     for plant in sorted({r["plant"] for r in recs}, key=lambda p: (p != "nominal", p)):
@@ -62,7 +63,7 @@ def paired_report(recs: list[dict], ref: str = "ksbo") -> list[str]:
         others = sorted({r["method"] for r in rs} - {ref})
         tables = {m: paired_rows(rs, ref, m) for m in others}
         tables = {m: t for m, t in tables.items() if t}
-        if not any(r["method"] == ref for r in rs) or not tables:
+        if not tables:  # no other method shares 5 seeds with ref (or ref did not fly this setting)
             continue
         setting = f"{mode}, {f'{n_prior} LHS + ' if n_prior else 'from a0, '}{budget} flights"
         lines += [f"**Paired: `{ref}` against each method on the same seeds** — {setting}. Difference of re-flown "

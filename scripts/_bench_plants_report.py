@@ -11,12 +11,13 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_paired import paired_report  # noqa: E402 - a sibling script module
+from _bench_paired import paired_report, reflown_ep  # noqa: E402 - a sibling script module
 
 SECTION = "Adaptive safe BO over a plant suite (issue 13)"
 DATA = Path(__file__).resolve().parent.parent / "benchmarks" / "plants"
 RECORDS, NOTES, FROZEN = DATA / "records.jsonl", DATA / "notes.md", DATA / "tables-frozen-2026-12-01.md"
 ORACLE = np.array([0.2367, 0.007699, 0.8752, 3.0, 0.000393, 2.662, 1.167e4, 88.22, 9777.0])
+#: SITL plants: a full `ksbo-mav tune` campaign from the ground on a fresh SITL (scripts/bench_sitl_campaign.py).
 SITL_PLANTS = {"sitl-ardupilot": "ardupilot", "sitl-px4": "px4"}
 
 
@@ -42,6 +43,7 @@ def best_known(recs: list[dict]) -> dict[str, tuple[float, str]]:
     from ksbo_mav.objective import SimObjective
 
     best: dict[str, tuple[float, str]] = {}
+    frozen = frozen_best()
     for plant in sorted({r["plant"] for r in recs}):
         if plant in SITL_PLANTS:
             best[plant] = (-np.inf, "")
@@ -61,7 +63,7 @@ def best_known(recs: list[dict]) -> dict[str, tuple[float, str]]:
         for r in recs:
             if r["plant"] == plant and r["EP"] > best[plant][0]:
                 best[plant] = (r["EP"], f"{r['method']} {r['mode']} seed {r['seed']} recommendation")
-        old = frozen_best().get(plant)
+        old = frozen.get(plant)
         if old is not None and old[0] > best[plant][0] + 5e-4:  # the frozen values are rounded to 3 decimals
             best[plant] = old
     return best
@@ -111,7 +113,7 @@ def report(recs: list[dict]) -> str:
                   == (tag, mode, method, n_prior, budget) and r["plant"] == plant]
             if not rs:
                 continue
-            ep = [r["EP"] if np.isfinite(r["EP"]) else -1.0 for r in rs]  # a re-flight that aborted: -1
+            ep = [reflown_ep(r) for r in rs]
             b = best[plant][0]
             rf = np.sum([r["reflown_counts"] for r in rs], axis=0)
             ab = [r["n_aborted"] for r in rs]

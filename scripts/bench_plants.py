@@ -65,9 +65,6 @@ def _objective(plant: str, seed: int, monitor: bool) -> tuple[Any, np.ndarray, n
     return obj, obj.profile.default, obj.profile.bounds
 
 
-#: SITL plants: a full `ksbo-mav tune` campaign from the ground on a fresh SITL (scripts/bench_sitl_campaign.py).
-
-
 def run_sitl(plant: str, method: str, seed: int, budget: int, options: dict[str, Any], n_prior: int = 0
              ) -> dict[str, Any]:
     """One campaign on a SITL: E[P] is the recommendation's mean lap-2 RMS over its 3 re-flights against the
@@ -178,6 +175,21 @@ def compact(value: Any, digits: int = 4) -> Any:
     return value
 
 
+def load_records(path: Path) -> list[dict]:
+    """The run records of a JSON-lines file; a missing file or a line that is not JSON exits with a one-line error
+    naming the file and line (nothing is written)."""
+    if not path.is_file():
+        raise SystemExit(f"bench_plants: no records file {path}")
+    recs = []
+    for n, line in enumerate(path.read_text().splitlines(), 1):
+        if line.strip():
+            try:
+                recs.append(json.loads(line))
+            except json.JSONDecodeError as e:
+                raise SystemExit(f"bench_plants: {path}:{n} is not a JSON record ({e.msg})") from None
+    return recs
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -206,7 +218,7 @@ def main(argv: list[str] | None = None) -> None:
     if a.cmd == "run":
         cmd_run(a)
     else:
-        recs = [json.loads(line) for line in Path(a.file).read_text().splitlines() if line.strip()]
+        recs = load_records(Path(a.file))
         if a.tag is not None:
             recs = [x for x in recs if x.get("tag", "") == a.tag]
         text = report(recs)

@@ -16,6 +16,14 @@ ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = ROOT / "scripts"
 
 
+def _load(name: str):
+    """A script module of scripts/ (not a package), imported by path."""
+    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 @pytest.mark.parametrize(("script", "flag"), [("bench_campaign.py", "--out"), ("bench_campaign_report.py", "--out"),
                                               ("bench_plants.py", "report"), ("diag_oracle_ray.py", "--plot")])
 def test_bench_scripts_start(script, flag):
@@ -23,13 +31,6 @@ def test_bench_scripts_start(script, flag):
                        timeout=120, cwd=ROOT)
     assert r.returncode == 0, r.stderr
     assert flag in r.stdout
-
-
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def test_paired_comparison_verdicts():
@@ -58,9 +59,7 @@ def test_paired_comparison_verdicts():
 
 
 def test_report_section_rewrite_keeps_the_hand_written_observations(tmp_path, monkeypatch):
-    spec = importlib.util.spec_from_file_location("_bench_common", SCRIPTS / "_bench_common.py")
-    common = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(common)
+    common = _load("_bench_common")
     md = tmp_path / "BENCHMARKS.md"
     md.write_text((ROOT / "BENCHMARKS.md").read_text())
     monkeypatch.setattr(common, "BENCHMARKS", md)
@@ -80,3 +79,13 @@ def test_best_known_counts_the_frozen_tables():
     # a planar plant's best known is at least the frozen value (and the oracle's re-flight)
     best = plants.best_known([{"plant": "delay 40ms", "EP": 0.4, "method": "ksbo", "mode": "strict", "seed": 0}])
     assert best["delay 40ms"][0] == pytest.approx(0.953)
+
+
+def test_report_on_bad_records_is_a_one_line_error(tmp_path):
+    bad = tmp_path / "records.jsonl"
+    bad.write_text('{"plant": "nominal"}\n{not json\n')
+    for path, words in ((bad, f"{bad}:2 is not a JSON record"), (tmp_path / "missing.jsonl", "no records file")):
+        r = subprocess.run([sys.executable, str(SCRIPTS / "bench_plants.py"), "report", str(path)],
+                           capture_output=True, text=True, timeout=120, cwd=ROOT)
+        assert r.returncode == 1 and words in r.stderr and "Traceback" not in r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1
