@@ -42,6 +42,10 @@ class SafetyLimits:
     ``ksbo-adaptive`` then may fly gains outside the certified set while its abort budget lasts (option
     ``backup_beta``, :data:`ksbo_mav.campaign.config.BACKUP_BETA`). False (the default) when the tuned gains
     include an attitude loop or nothing bounds the tilt: the planar task's bad gains flip the vehicle in 0.2 s.
+
+    ``brake_accel_mps2`` (optional) checks the box at the point where the vehicle would stop braking at that
+    deceleration, ``p + v·|v| / (2 a)`` per axis, so a vehicle racing towards the fence trips while there is room
+    to stop; without it the box is checked at the position.
     """
 
     x_max_m: float = 2.0
@@ -52,9 +56,11 @@ class SafetyLimits:
     tracking_error_max_m: float = 1.0
     heartbeat_timeout_s: float = 3.0
     backup_covers_trials: bool = False
+    brake_accel_mps2: float | None = None
 
     def __post_init__(self) -> None:
-        _positive(self, "x_max_m", "y_max_m", "tilt_max_deg", "tracking_error_max_m", "heartbeat_timeout_s")
+        _positive(self, "x_max_m", "y_max_m", "tilt_max_deg", "tracking_error_max_m", "heartbeat_timeout_s",
+                  "brake_accel_mps2")
         if not self.z_min_m < self.z_max_m:
             raise InputError(f"z_min_m {self.z_min_m:g} must be below z_max_m {self.z_max_m:g}")
 

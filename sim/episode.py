@@ -62,12 +62,16 @@ class MonitorConfig:
         hold: (x, z) point the backup holds.
         recover_steps: control steps the backup must stay inside the environment bounds for the flight to count
             as recovered (``aborted``); leaving them is ``crashed``.
+        attitude_priority: the backup's mixer keeps torque authority (:class:`ksbo_sim.pid.PlanarPID`), as
+            ArduPilot's mixer and PX4's airmode do; SCG's mixer (the trials') loses it whenever the position loop asks
+            for less than the minimum thrust, and a vehicle tripped while climbing or pitching then tumbles on.
     """
 
     limits: MonitorLimits = field(default_factory=planar_monitor_limits)
     backup: tuple[float, ...] = BACKUP_GAINS
     hold: tuple[float, float] = (0.0, 1.0)
     recover_steps: int = 150
+    attitude_priority: bool = True
 
 
 @dataclass(frozen=True)
@@ -224,6 +228,7 @@ def simulate(gains: np.ndarray, init: np.ndarray, config: EpisodeConfig | None =
                 pid.gains[new] = mon.backup
                 pid.int_pos[new] = 0.0
                 pid.int_pitch[new] = 0.0
+                pid.attitude_priority[new] = mon.attitude_priority
             done |= backing & (k + 1 - tripped_at[active] >= mon.recover_steps)
         if done.any():
             keep = ~done

@@ -57,30 +57,49 @@ class MonitorLimits:
     z_max: float = 2.0
     tilt_max_deg: float = 85.0
     tracking_error_max: float = 1.0
+    #: Deceleration (m/s²) of the stopping-point fence: given a velocity, the box is checked at the point where
+    #: the vehicle would stop, ``p + v·|v| / (2 brake_accel)`` per axis, so a fast vehicle trips while the backup
+    #: still has room to brake. None: the position only.
+    brake_accel: float | None = None
 
 
 def planar_monitor_limits() -> MonitorLimits:
-    """In-process planar monitor: a ±1.6 m × [0.2, 1.8] m box, 60° tilt, 1 m tracking error (the figure-8
-    spans ±0.75 m × [0.625, 1.375] m, so a good flight never comes near these)."""
-    return MonitorLimits(x_max=1.6, z_min=0.2, z_max=1.8, tilt_max_deg=60.0, tracking_error_max=1.0)
+    """In-process planar monitor: a ±1.6 m × [0.2, 1.8] m box checked at the stopping point (3 m/s² braking), 60°
+    tilt, 1 m tracking error (the figure-8 spans ±0.75 m × [0.625, 1.375] m at up to 1.3 m/s, so a good flight
+    never comes near these)."""
+    return MonitorLimits(x_max=1.6, z_min=0.2, z_max=1.8, tilt_max_deg=60.0, tracking_error_max=1.0,
+                         brake_accel=3.0)
+
+
+def stopping_point(lim: MonitorLimits, p: np.ndarray | float, v: np.ndarray | float | None) -> np.ndarray | float:
+    """Where the box is checked: ``p`` itself, or with a velocity and ``lim.brake_accel`` the stopping point
+    ``p + v·|v| / (2 brake_accel)``."""
+    if v is None or lim.brake_accel is None:
+        return p
+    return p + v * np.abs(v) / (2.0 * lim.brake_accel)
 
 
 def check_state(lim: MonitorLimits, north: float, east: float, up: float, tilt_rad: float | None = None,
-                ref: tuple[float, float, float] | None = None) -> tuple[str, str] | None:
+                ref: tuple[float, float, float] | None = None,
+                vel: tuple[float, float, float] | None = None) -> tuple[str, str] | None:
     """One sample against ``lim``: ``(code, message)`` with code "fence", "tilt" or "track", or None.
 
     Args:
         north, east, up: position (m). tilt_rad: max(|roll|, |pitch|) or None if unknown.
         ref: reference (north, east, up) for the tracking-error check, or None (holds).
+        vel: velocity (north, east, up) in m/s for the stopping-point fence (``lim.brake_accel``), or None.
     """
     if not (math.isfinite(north) and math.isfinite(up)):
         return "fence", "telemetry position is not finite"
-    if abs(north) > lim.x_max:
-        return "fence", f"|north| {abs(north):.2f} m > {lim.x_max:g} m"
-    if abs(east) > lim.y_max:
-        return "fence", f"|east| {abs(east):.2f} m > {lim.y_max:g} m"
-    if up < lim.z_min or up > lim.z_max:
-        return "fence", f"height {up:.2f} m outside [{lim.z_min:g}, {lim.z_max:g}] m"
+    stop = "" if vel is None or lim.brake_accel is None else " at the stopping point"
+    v = (None, None, None) if vel is None or not all(map(math.isfinite, vel)) else vel
+    n_, e_, u_ = (float(stopping_point(lim, p, w)) for p, w in zip((north, east, up), v))
+    if abs(n_) > lim.x_max:
+        return "fence", f"|north| {abs(n_):.2f} m{stop} > {lim.x_max:g} m"
+    if abs(e_) > lim.y_max:
+        return "fence", f"|east| {abs(e_):.2f} m{stop} > {lim.y_max:g} m"
+    if u_ < lim.z_min or u_ > lim.z_max:
+        return "fence", f"height {u_:.2f} m{stop} outside [{lim.z_min:g}, {lim.z_max:g}] m"
     if tilt_rad is not None:
         tilt = math.degrees(abs(tilt_rad))
         if tilt > lim.tilt_max_deg:
@@ -95,7 +114,8 @@ def check_state(lim: MonitorLimits, north: float, east: float, up: float, tilt_r
 def trip_codes(lim: MonitorLimits, states: np.ndarray, ref_xz: np.ndarray | None) -> np.ndarray:
     """(B,) trip code of each planar state (B, 6) [x, vx, z, vz, θ, θ̇]; ``ref_xz`` (2,) or (B, 2) or None.
 
-    Same precedence as :func:`check_state` (fence, then tilt, then tracking); NaN positions trip the fence.
+    Same precedence as :func:`check_state` (fence, then tilt, then tracking); NaN positions trip the fence. The
+    fence is checked at the stopping point when ``lim.brake_accel`` is set (the states carry the velocity).
     """
     x, z, th = states[:, 0], states[:, 2], states[:, 4]
     code = np.zeros(states.shape[0], dtype=np.int8)
@@ -104,6 +124,7 @@ def trip_codes(lim: MonitorLimits, states: np.ndarray, ref_xz: np.ndarray | None
         err = np.hypot(x - ref[:, 0], z - ref[:, 1])
         code[err > lim.tracking_error_max] = TRACK
     code[np.abs(th) > math.radians(lim.tilt_max_deg)] = TILT
-    fence = ~((np.abs(x) <= lim.x_max) & (z >= lim.z_min) & (z <= lim.z_max))
+    xs, zs = stopping_point(lim, x, states[:, 1]), stopping_point(lim, z, states[:, 3])
+    fence = ~((np.abs(xs) <= lim.x_max) & (zs >= lim.z_min) & (zs <= lim.z_max))
     code[fence] = FENCE
     return code

@@ -3,6 +3,11 @@
 Gains per row: [Px, Ix, Dx, Pz, Iz, Dz, Ptheta, Itheta, Dtheta]. The position PID gives a desired force
 vector; its projection on the body axis is the collective thrust and its direction the pitch target; the
 attitude PID gives a torque in PWM units that the mixer splits between the two motor pairs.
+
+SCG's mixer clips each motor to the PWM range, so when the position loop asks for little or no thrust both motors
+sit at the minimum and the torque is lost: a vehicle caught pitching keeps its pitch rate. Rows flagged in
+``attitude_priority`` (the in-process monitor's backup) shift the collective instead so that the torque survives,
+as ArduPilot's mixer does (attitude before throttle, ``ATC_THR_MIX_*``) and PX4's with airmode.
 """
 
 from __future__ import annotations
@@ -27,6 +32,8 @@ class PlanarPID:
         self.int_pos = np.zeros((gains.shape[0], 2))
         self.int_pitch = np.zeros(gains.shape[0])
         self.prev_pitch = np.zeros(gains.shape[0])
+        #: (B,) rows whose mixer keeps torque authority (see :meth:`__call__`); the backup of a tripped flight.
+        self.attitude_priority = np.zeros(gains.shape[0], dtype=bool)
 
     def reset(self, pitch: np.ndarray | None = None) -> None:
         """Zero the integrators; the previous pitch starts at the current pitch (SCG starts it at 0)."""
@@ -40,6 +47,7 @@ class PlanarPID:
         self.int_pos = self.int_pos[idx]
         self.int_pitch = self.int_pitch[idx]
         self.prev_pitch = self.prev_pitch[idx]
+        self.attitude_priority = self.attitude_priority[idx]
 
     def __call__(self, state: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray) -> np.ndarray:
         """One control step.
@@ -68,6 +76,10 @@ class PlanarPID:
         torque = -k[:, 6] * e_pitch - k[:, 8] * (theta - self.prev_pitch) / dt + k[:, 7] * self.int_pitch
         _clip(torque, c.max_torque_pwm)
         self.prev_pitch = theta.copy()
+        m = self.attitude_priority
+        if m.any():  # attitude priority: shift the collective so the torque is not lost to the PWM limits
+            half = 0.5 * np.abs(torque[m])
+            pwm_thrust[m] = np.minimum(np.maximum(pwm_thrust[m], c.pwm_min + half), c.pwm_max - half)
         pwm = np.stack([pwm_thrust - 0.5 * torque, pwm_thrust + 0.5 * torque], axis=1)
         np.minimum(np.maximum(pwm, c.pwm_min, out=pwm), c.pwm_max, out=pwm)
         rpm = c.pwm2rpm_scale * pwm + c.pwm2rpm_const

@@ -83,3 +83,49 @@ def test_one_limit_check_for_batch_sample_and_mavlink() -> None:
         got = mon.check_sample(lpn, att, np.array([0.0, 0.0, -1.0]))
         assert (got and got[0]) == want
     assert mon.check_sample(SimpleNamespace(x=math.nan, y=0.0, z=-1.0), None, None)[0] == "fence"
+
+
+def test_stopping_point_fence_trips_a_vehicle_racing_towards_the_box_edge() -> None:
+    from ksbo_mav.mav.monitor import Monitor
+
+    lim = MonitorLimits(x_max=1.6, z_min=0.2, z_max=1.8, tilt_max_deg=60, tracking_error_max=5.0, brake_accel=3.0)
+    # x 1.0 m at +2.5 m/s stops at 1.0 + 2.5² / 6 = 2.04 m; at -2.5 m/s it is braking away from the edge.
+    states = np.array([[1.0, 2.5, 1.0, 0, 0, 0], [1.0, -2.5, 1.0, 0, 0, 0], [0, 0, 0.5, -1.5, 0, 0],
+                       [0, 0, 0.5, 1.5, 0, 0], [0.5, 1.0, 1.0, 0.5, 0, 0]])
+    assert trip_codes(lim, states, None).tolist() == [FENCE, 0, FENCE, 0, 0]
+    no_brake = MonitorLimits(x_max=1.6, z_min=0.2, z_max=1.8, tilt_max_deg=60, tracking_error_max=5.0)
+    assert trip_codes(no_brake, states, None).tolist() == [0, 0, 0, 0, 0]
+    mon = Monitor(lim, guided_mode=4)
+    for s, want in zip(states, ["fence", None, "fence", None, None]):
+        got = check_state(lim, s[0], 0.0, s[2], 0.0, None, (s[1], 0.0, s[3]))
+        assert (got and got[0]) == want
+        assert check_state(lim, s[0], 0.0, s[2], 0.0, None) is None  # without a velocity: the position only
+        lpn = SimpleNamespace(x=s[0], y=0.0, z=-s[2], vx=s[1], vy=0.0, vz=-s[3])  # NED
+        got = mon.check_sample(lpn, None, None)
+        assert (got and got[0]) == want
+    assert "stopping point" in check_state(lim, 1.0, 0.0, 1.0, 0.0, None, (2.5, 0.0, 0.0))[1]
+
+
+def test_backup_mixer_keeps_torque_when_the_position_loop_asks_for_no_thrust() -> None:
+    from ksbo_sim.constants import SCG_CRAZYFLIE
+    from ksbo_sim.pid import PlanarPID
+
+    # 0.3 m above the hold point and climbing, pitched 45° and pitching on: the position loop asks for fz < 0.
+    state = np.array([[0.0, 0.5, 1.3, 0.8, math.radians(45), 2.0]] * 2)
+    pid = PlanarPID(np.array([A0, A0]), SCG_CRAZYFLIE, 0.02)
+    pid.reset(pitch=state[:, 4] - 2.0 * 0.02)
+    pid.attitude_priority[1] = True
+    T = pid(state, np.array([0.0, 1.0]), np.zeros(2))
+    assert T[0, 0] == pytest.approx(T[0, 1])  # SCG's mixer: both motors at the minimum, the torque is lost
+    assert T[1, 0] > T[1, 1] + 1e-3  # attitude priority: the torque that stops the pitch-up survives
+
+
+def test_attitude_priority_turns_a_tumbling_trip_into_a_recovered_abort() -> None:
+    # A trial of a ksbo run on nominal (tuning seed, monitor): the monitor trips at 60° tilt while the pitch loop
+    # still rotates the vehicle; with SCG's mixer the backup asks for no thrust and the vehicle tumbles on.
+    gains = np.array([0.1678, 0.0, 0.2605, 0.6207, 0.0317, 0.8031, 39445.9197, 35.6119, 7944.0933])
+    init = np.array([0.0, -0.0003, 1.0, -0.0238, 0.0, 0.0])
+    old = simulate(gains, init, EpisodeConfig(monitor=MonitorConfig(attitude_priority=False)))
+    new = simulate(gains, init, EpisodeConfig(monitor=MonitorConfig()))
+    assert old.trip[0] == new.trip[0] == TILT and old.L[0] == new.L[0]  # the same flight up to the same trip
+    assert old.outcomes == [Outcome.CRASHED] and new.outcomes == [Outcome.ABORTED]

@@ -25,13 +25,14 @@ def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settl
         area = (f"figure-8 {2 * m.scale_m:g} m along x, {m.scale_m:g} m tall around {m.center_up_m:g} m height "
                 "(planar x-z)")
     east_box = f"|east| <= {s.y_max_m:g} m, " if math.isfinite(s.y_max_m) else ""
+    stop = "" if s.brake_accel_mps2 is None else f" (at the stopping point, braking {s.brake_accel_mps2:g} m/s^2)"
     trial_s = m.laps * m.period_s + settle_s + OVERHEAD_S
     flights = 1 + n_prior + max(0, budget - 1) + confirm
     total_min = flights * trial_s / 60.0
     packs = math.ceil(total_min / (0.8 * PACK_MIN))
     return "\n".join([
         f"airspace: {area}",
-        f"abort box: |north| <= {s.x_max_m:g} m, {east_box}height {s.z_min_m:g}-{s.z_max_m:g} m, tilt "
+        f"abort box: |north| <= {s.x_max_m:g} m, {east_box}height {s.z_min_m:g}-{s.z_max_m:g} m{stop}, tilt "
         f"<= {s.tilt_max_deg:g} deg, tracking error <= {s.tracking_error_max_m:g} m, heartbeat gap <= "
         f"{s.heartbeat_timeout_s:g} s",
         f"flights: {flights} trials (1 baseline + {n_prior} prior + {max(0, budget - 1)} optimiser + {confirm} "

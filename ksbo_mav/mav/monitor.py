@@ -8,6 +8,7 @@ depends on the cause.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -21,13 +22,14 @@ from ksbo_sim.monitor import MonitorLimits, check_state
 Limits = MonitorLimits
 
 _SAFETY_KEYS = {"x_max_m": "x_max", "y_max_m": "y_max", "z_min_m": "z_min", "z_max_m": "z_max",
-                "tilt_max_deg": "tilt_max_deg", "tracking_error_max_m": "tracking_error_max"}
+                "tilt_max_deg": "tilt_max_deg", "tracking_error_max_m": "tracking_error_max",
+                "brake_accel_mps2": "brake_accel"}
 
 
 def limits_from_profile(profile: Profile, overrides: dict[str, float] | None = None) -> Limits:
     """The profile's ``[safety]`` thresholds with ``overrides`` (profile key names, e.g. ``x_max_m``) applied."""
     s = profile.safety
-    values = {field: float(getattr(s, key)) for key, field in _SAFETY_KEYS.items()}
+    values = {field: None if getattr(s, key) is None else float(getattr(s, key)) for key, field in _SAFETY_KEYS.items()}
     for key, value in (overrides or {}).items():
         if key in _SAFETY_KEYS:
             values[_SAFETY_KEYS[key]] = float(value)
@@ -46,10 +48,13 @@ class Monitor:
     def check_sample(self, lpn: Any, att: Any | None, ref_ned: np.ndarray | None) -> tuple[str, str] | None:
         """Position/attitude/tracking checks on one LOCAL_POSITION_NED (+ latest ATTITUDE, + the reference sent
         for that instant, NED, or None during holds). The checks are :func:`ksbo_sim.monitor.check_state`, the
-        same code the in-process simulator's monitor runs."""
+        same code the in-process simulator's monitor runs; the sample's velocity feeds the stopping-point fence
+        when the profile sets ``brake_accel_mps2``."""
         tilt = None if att is None else max(abs(float(att.pitch)), abs(float(att.roll)))
         ref = None if ref_ned is None else (float(ref_ned[0]), float(ref_ned[1]), -float(ref_ned[2]))
-        return check_state(self.limits, float(lpn.x), float(lpn.y), -float(lpn.z), tilt, ref)
+        vel = (float(getattr(lpn, "vx", math.nan)), float(getattr(lpn, "vy", math.nan)),
+               -float(getattr(lpn, "vz", math.nan)))  # no velocity in the sample: the position only
+        return check_state(self.limits, float(lpn.x), float(lpn.y), -float(lpn.z), tilt, ref, vel)
 
     def check_heartbeat(self, hb: Any) -> tuple[str, str] | None:
         """Crash / disarm / pilot mode change from the vehicle's latest HEARTBEAT."""
