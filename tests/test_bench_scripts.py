@@ -25,7 +25,8 @@ def _load(name: str):
 
 
 @pytest.mark.parametrize(("script", "flag"), [("bench_campaign.py", "--out"), ("bench_campaign_report.py", "--out"),
-                                              ("bench_plants.py", "report"), ("diag_oracle_ray.py", "--plot")])
+                                              ("bench_plants.py", "report"), ("diag_oracle_ray.py", "--plot"),
+                                              ("diag_monitor_backup.py", "--n")])
 def test_bench_scripts_start(script, flag):
     r = subprocess.run([sys.executable, str(SCRIPTS / script), "--help"], capture_output=True, text=True,
                        timeout=120, cwd=ROOT)
@@ -89,3 +90,14 @@ def test_report_on_bad_records_is_a_one_line_error(tmp_path):
                            capture_output=True, text=True, timeout=120, cwd=ROOT)
         assert r.returncode == 1 and words in r.stderr and "Traceback" not in r.stderr
         assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_monitor_backup_diag_same_flights_fewer_crashes():
+    """The diagnostic flies the same gains from the same starts under both monitors; the attitude-priority backup
+    with the stopping-point fence turns most crashes of the old monitor into recovered aborts."""
+    diag = _load("diag_monitor_backup")
+    c = diag.plant_counts("nominal", 200, seed=3)
+    assert c["before"].shape == c["now"].shape == (200,)
+    assert (c["before"] == 2).sum() >= 3 * max(1, (c["now"] == 2).sum())
+    # the old monitor's completes that the new one stops are few (it trips earlier only when heading out fast)
+    assert ((c["before"] == 0) & (c["now"] != 0)).sum() <= 0.05 * (c["before"] == 0).sum()

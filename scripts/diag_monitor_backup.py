@@ -1,0 +1,84 @@
+"""Issue 13 diagnostic: does the in-process monitor turn bad flights into recovered ones (aborted) rather than
+crashes? The same random gains are flown, from the same random initial conditions, under two monitors:
+
+- ``before``: the monitor of the tenth session — box checked at the position only, backup flown through SCG's
+  mixer (which loses all torque when the position loop asks for less than the minimum thrust);
+- ``now``: the default — box checked at the stopping point ``p + v|v|/(2·3 m/s²)``, backup mixer with attitude
+  priority (collective clamped so the torque survives, like ArduPilot's ATC_THR_MIX and PX4's airmode).
+
+Gains: ``--n`` points per plant at a distance drawn uniformly in [0.05, 0.6] from the profile's baseline a0 in
+the optimiser's unit cube (random direction, clipped to the cube) — where a safe optimiser's exploration goes.
+Printed per plant: complete / aborted / crashed under each monitor, and the completes the new monitor loses
+(flights that finished under the old one but are stopped now) with how many of those scored P < 0 anyway.
+
+    python scripts/diag_monitor_backup.py --n 1500
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+
+import numpy as np
+
+
+def monitors() -> dict[str, object]:
+    from ksbo_sim.episode import MonitorConfig
+    from ksbo_sim.monitor import planar_monitor_limits
+
+    before = MonitorConfig(limits=replace(planar_monitor_limits(), brake_accel=None), attitude_priority=False)
+    return {"before": before, "now": MonitorConfig()}
+
+
+def random_gains(profile, n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, d) gains at unit-cube distance U(0.05, 0.6) from the baseline, random direction, clipped to the box."""
+    u0 = profile.to_unit(profile.default)
+    d = rng.normal(size=(n, u0.size))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    u = np.clip(u0 + d * rng.uniform(0.05, 0.6, size=(n, 1)), 0.0, 1.0)
+    return np.array([profile.from_unit(row) for row in u])
+
+
+def plant_counts(plant: str, n: int, seed: int) -> dict[str, np.ndarray]:
+    """Per monitor: (n,) outcome codes (0 complete, 1 aborted, 2 crashed) and (n,) P, same gains and starts."""
+    from ksbo_mav.objective import SimObjective
+    from ksbo_sim.episode import random_initial_states
+    from ksbo_sim.monitor import Outcome
+
+    code = {Outcome.COMPLETE: 0, Outcome.ABORTED: 1, Outcome.CRASHED: 2}
+    rng = np.random.default_rng(seed)
+    out: dict[str, np.ndarray] = {}
+    X = init = None
+    for name, mon in monitors().items():
+        obj = SimObjective(plant=plant, monitor=mon)
+        if X is None:
+            X = random_gains(obj.profile, n, rng)
+            init = random_initial_states(n, rng, obj.episode)
+        sc, outs = obj.scores(X, init, with_outcomes=True)
+        out[name] = np.array([code[o] for o in outs])
+        out[name + "_P"] = sc.P
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    from ksbo_sim.plants import PLANTS
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--n", type=int, default=1500, help="random gains per plant")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--plants", default=",".join(PLANTS))
+    a = ap.parse_args(argv)
+    print("| plant | before: complete / aborted / crashed | now: complete / aborted / crashed "
+          "| completes lost (of them P < 0 before) |")
+    print("|---|---|---|---|")
+    for plant in a.plants.split(","):
+        c = plant_counts(plant, a.n, a.seed)
+        b, w = c["before"], c["now"]
+        lost = (b == 0) & (w != 0)
+        fmt = lambda o: " / ".join(str(int((o == k).sum())) for k in range(3))  # noqa: E731
+        print(f"| {plant} | {fmt(b)} | {fmt(w)} | {int(lost.sum())} ({int((lost & (c['before_P'] < 0)).sum())}) |",
+              flush=True)
+
+
+if __name__ == "__main__":
+    main()
