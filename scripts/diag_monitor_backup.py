@@ -10,8 +10,10 @@ Gains: ``--n`` points per plant at a distance drawn uniformly in [0.05, 0.6] fro
 the optimiser's unit cube (random direction, clipped to the cube) — where a safe optimiser's exploration goes.
 Printed per plant: complete / aborted / crashed under each monitor, and the completes the new monitor loses
 (flights that finished under the old one but are stopped now) with how many of those scored P < 0 anyway.
+``--why``: for the crashes left under the new monitor, what tripped it, which environment bound ended the flight
+and how many control steps (50 Hz) lay between the trip and the crash.
 
-    python scripts/diag_monitor_backup.py --n 1500
+    python scripts/diag_monitor_backup.py --n 1500 [--why]
 """
 
 from __future__ import annotations
@@ -60,6 +62,28 @@ def plant_counts(plant: str, n: int, seed: int) -> dict[str, np.ndarray]:
     return out
 
 
+def crash_causes(plant: str, n: int, seed: int) -> tuple[dict[str, int], float]:
+    """The new monitor's crashes on ``plant`` (same draw as :func:`plant_counts`): counts of "trip → crash
+    reason" and the median number of control steps from the trip to the crash."""
+    from collections import Counter
+
+    from ksbo_mav.objective import SimObjective
+    from ksbo_sim.episode import REASONS, random_initial_states, simulate
+    from ksbo_sim.monitor import TRIP_NAMES
+
+    rng = np.random.default_rng(seed)
+    obj = SimObjective(plant=plant, monitor=monitors()["now"])
+    X = random_gains(obj.profile, n, rng)
+    r = simulate(X, random_initial_states(n, rng, obj.episode), obj.episode)
+    causes: Counter[str] = Counter()
+    gaps = []
+    for i in np.nonzero(r.reason != 0)[0]:
+        causes[f"{TRIP_NAMES[int(r.trip[i])]} → {REASONS[int(r.reason[i])]}"] += 1
+        flown = np.nonzero(~np.isnan(r.states[i, :, 0]))[0]
+        gaps.append(int(flown[-1]) - int(r.L[i]))
+    return dict(causes.most_common()), float(np.median(gaps)) if gaps else float("nan")
+
+
 def main(argv: list[str] | None = None) -> None:
     from ksbo_sim.plants import PLANTS
 
@@ -67,6 +91,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--n", type=int, default=1500, help="random gains per plant")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--plants", default=",".join(PLANTS))
+    ap.add_argument("--why", action="store_true", help="also classify the crashes left under the new monitor")
     a = ap.parse_args(argv)
     print("| plant | before: complete / aborted / crashed | now: complete / aborted / crashed "
           "| completes lost (of them P < 0 before) |")
@@ -78,6 +103,11 @@ def main(argv: list[str] | None = None) -> None:
         fmt = lambda o: " / ".join(str(int((o == k).sum())) for k in range(3))  # noqa: E731
         print(f"| {plant} | {fmt(b)} | {fmt(w)} | {int(lost.sum())} ({int((lost & (c['before_P'] < 0)).sum())}) |",
               flush=True)
+    if a.why:
+        for plant in a.plants.split(","):
+            causes, gap = crash_causes(plant, a.n, a.seed)
+            print(f"{plant}: {sum(causes.values())} crashes, trip → crash in {gap:.0f} steps (median): "
+                  + ", ".join(f"{k} {v}" for k, v in causes.items()))
 
 
 if __name__ == "__main__":
