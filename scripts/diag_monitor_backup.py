@@ -10,7 +10,7 @@ Gains: ``--n`` points per plant at a distance drawn uniformly in [0.05, 0.6] fro
 the optimiser's unit cube (random direction, clipped to the cube) — where a safe optimiser's exploration goes.
 Printed per plant: complete / aborted / crashed under each monitor, and the completes the new monitor loses
 (flights that finished under the old one but are stopped now) with how many of those scored P < 0 anyway.
-``--why``: for the crashes left under the new monitor, what tripped it, which environment bound ended the flight
+``--why``: for each monitor's crashes, what tripped it, which environment bound ended the flight
 and how many control steps (50 Hz) lay between the trip and the crash.
 
     python scripts/diag_monitor_backup.py --n 1500 [--why]
@@ -62,9 +62,9 @@ def plant_counts(plant: str, n: int, seed: int) -> dict[str, np.ndarray]:
     return out
 
 
-def crash_causes(plant: str, n: int, seed: int) -> tuple[dict[str, int], float]:
-    """The new monitor's crashes on ``plant`` (same draw as :func:`plant_counts`): counts of "trip → crash
-    reason" and the median number of control steps from the trip to the crash."""
+def crash_causes(plant: str, n: int, seed: int, which: str = "now") -> tuple[dict[str, int], float]:
+    """The crashes of monitor ``which`` ("now" or "before") on ``plant`` (same draw as :func:`plant_counts`):
+    counts of "trip → crash reason" and the median number of control steps from the trip to the crash."""
     from collections import Counter
 
     from ksbo_mav.objective import SimObjective
@@ -72,7 +72,7 @@ def crash_causes(plant: str, n: int, seed: int) -> tuple[dict[str, int], float]:
     from ksbo_sim.monitor import TRIP_NAMES
 
     rng = np.random.default_rng(seed)
-    obj = SimObjective(plant=plant, monitor=monitors()["now"])
+    obj = SimObjective(plant=plant, monitor=monitors()[which])
     X = random_gains(obj.profile, n, rng)
     r = simulate(X, random_initial_states(n, rng, obj.episode), obj.episode)
     causes: Counter[str] = Counter()
@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--n", type=int, default=1500, help="random gains per plant")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--plants", default=",".join(PLANTS))
-    ap.add_argument("--why", action="store_true", help="also classify the crashes left under the new monitor")
+    ap.add_argument("--why", action="store_true", help="also classify each monitor's crashes")
     a = ap.parse_args(argv)
     print("| plant | before: complete / aborted / crashed | now: complete / aborted / crashed "
           "| completes lost (of them P < 0 before) |")
@@ -105,9 +105,10 @@ def main(argv: list[str] | None = None) -> None:
               flush=True)
     if a.why:
         for plant in a.plants.split(","):
-            causes, gap = crash_causes(plant, a.n, a.seed)
-            print(f"{plant}: {sum(causes.values())} crashes, trip → crash in {gap:.0f} steps (median): "
-                  + ", ".join(f"{k} {v}" for k, v in causes.items()))
+            for which in ("before", "now"):
+                causes, gap = crash_causes(plant, a.n, a.seed, which)
+                print(f"{plant} ({which}): {sum(causes.values())} crashes, trip → crash in {gap:.0f} steps (median): "
+                      + ", ".join(f"{k} {v}" for k, v in causes.items()))
 
 
 if __name__ == "__main__":
