@@ -108,3 +108,25 @@ def test_ardupilot_style_echo_uses_index_65535():
     t.send = lambda name, index: sent.append((name, index))
     t.handle(Msg())
     assert sent == [("A", 65535)] and t["A"] == np.float32(0.5)
+
+
+@pytest.mark.parametrize("personality", [PX4, ARDUPILOT])
+def test_offboard_position_setpoint_above_lifts_off_on_px4_only(personality):
+    """PX4 takes off when armed in OFFBOARD with a position setpoint above it (the tuner's PX4 path); ArduPilot
+    needs NAV_TAKEOFF in GUIDED and stays on the ground."""
+    from ksbo_sim.mavlink.flight import Flight
+
+    model = PlanarVehicle()
+    fl = Flight(model, Estimator(model.ctrl_dt), lambda sev, text: None)
+    fl.takeoff_mode, fl.after_takeoff_mode = personality.takeoff_mode, personality.after_takeoff_mode
+    assert fl.set_mode(Mode.GUIDED) is None and fl.arm() is None
+    nan3 = np.full(3, np.nan)
+    t = 0
+    for _ in range(200):
+        fl.set_target(np.array([0.0, 0.0, -1.0]), nan3, nan3, t)
+        fl.step(t)
+        t += fl.dt_us
+    if personality is PX4:
+        assert not fl.landed and fl.truth.pos[2] < -0.5
+    else:
+        assert fl.landed and fl.truth.pos[2] == 0.0

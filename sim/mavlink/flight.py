@@ -190,8 +190,18 @@ class Flight:
         return None
 
     # --- one control period ----------------------------------------------------------------------------
+    def _offboard_liftoff(self) -> bool:
+        """PX4 (a personality with a takeoff mode): armed on the ground in OFFBOARD with a position setpoint above
+        the vehicle, it climbs to it; ArduPilot needs NAV_TAKEOFF in GUIDED."""
+        t = self.target
+        return (self.takeoff_mode is not None and self.mode is Mode.GUIDED and t is not None
+                and bool(np.isfinite(t.pos[2])) and t.pos[2] < self.truth.pos[2] - TAKEOFF_DONE_M)
+
     def step(self, now_us: int) -> None:
         """Advance the vehicle from ``now_us`` by one control period."""
+        if self.armed and self.landed and self._offboard_liftoff():
+            self.landed = False
+            self.notify(SEV_INFO, "Offboard takeoff")
         if not self.armed or self.landed:
             return
         sp = self._setpoint(now_us)
