@@ -119,11 +119,11 @@ class AdaptiveConfig:
         exclusion_growth, exclusion_max: the exclusion ball (``exclusion_radius``) of a bad trial grows
             ×``exclusion_growth`` (up to ``exclusion_max``) each time a later bad trial lands within twice its
             radius (opt.region.exclusion_radii); 1 = fixed balls. Fallbacks then avoid the balls too.
-        failure_scale_shrink: each trial at new gains that aborts or crashes multiplies the learnt safety
-            lengthscales by this (a certified point failed: the GP claimed too much smoothness); 1 = off.
+        failure_scale_shrink: each trial at new gains that aborts or crashes multiplies the safety lengthscales
+            (learnt, or the fixed one with ``learn_safety_scale`` off) by this (a certified point failed: the GP
+            claimed too much smoothness); 1 = off.
         unsafe_scale_shrink: the same for a completed trial at new gains that scored below p_min (the strict
-            mode's unsafe flight), applied to the fixed safety lengthscale too (``learn_safety_scale`` off): the
-            plant is less smooth than assumed there; 1 = off.
+            mode's unsafe flight): the plant is less smooth than assumed there; 1 = off.
         ard_acquisition: > 0: the UCB (and the candidate anchors) come from a copy of the main GP whose base
             lengthscale along each dimension is raised to ``ard_acquisition`` × the learnt safety lengthscale
             there, so a step along a dimension the data show to be flat earns little uncertainty bonus. Safety (the
