@@ -41,40 +41,48 @@ def random_gains(profile, n: int, rng: np.random.Generator) -> np.ndarray:
     return np.array([profile.from_unit(row) for row in u])
 
 
-def plant_counts(plant: str, n: int, seed: int) -> dict[str, np.ndarray]:
-    """Per monitor: (n,) outcome codes (0 complete, 1 aborted, 2 crashed) and (n,) P, same gains and starts."""
+def fly(plant: str, n: int, seed: int) -> dict[str, tuple[object, np.ndarray]]:
+    """Per monitor ("before", "now"): the :class:`ksbo_sim.episode.Rollout` of ``n`` random gains on ``plant`` and
+    their (n,) P, the same gains and initial conditions under both."""
     from ksbo_mav.objective import SimObjective
-    from ksbo_sim.episode import random_initial_states
-    from ksbo_sim.monitor import Outcome
+    from ksbo_mav.scoring import score_rollout
+    from ksbo_sim.episode import random_initial_states, simulate
 
-    code = {Outcome.COMPLETE: 0, Outcome.ABORTED: 1, Outcome.CRASHED: 2}
     rng = np.random.default_rng(seed)
-    out: dict[str, np.ndarray] = {}
+    out: dict[str, tuple[object, np.ndarray]] = {}
     X = init = None
     for name, mon in monitors().items():
         obj = SimObjective(plant=plant, monitor=mon)
         if X is None:
             X = random_gains(obj.profile, n, rng)
             init = random_initial_states(n, rng, obj.episode)
-        sc, outs = obj.scores(X, init, with_outcomes=True)
-        out[name] = np.array([code[o] for o in outs])
-        out[name + "_P"] = sc.P
+        r = simulate(X, init, obj.episode)
+        out[name] = (r, score_rollout(r, obj.score_config).P)
     return out
 
 
-def crash_causes(plant: str, n: int, seed: int, which: str = "now") -> tuple[dict[str, int], float]:
-    """The crashes of monitor ``which`` ("now" or "before") on ``plant`` (same draw as :func:`plant_counts`):
-    counts of "trip → crash reason" and the median number of control steps from the trip to the crash."""
+def plant_counts(plant: str, n: int, seed: int, flights: dict | None = None) -> dict[str, np.ndarray]:
+    """Per monitor: (n,) outcome codes (0 complete, 1 aborted, 2 crashed) and (n,) P (key ``<monitor>_P``), same
+    gains and starts; ``flights`` reuses a :func:`fly` result."""
+    from ksbo_sim.monitor import Outcome
+
+    code = {Outcome.COMPLETE: 0, Outcome.ABORTED: 1, Outcome.CRASHED: 2}
+    out: dict[str, np.ndarray] = {}
+    for name, (r, P) in (flights or fly(plant, n, seed)).items():
+        out[name] = np.array([code[o] for o in r.outcomes])
+        out[name + "_P"] = P
+    return out
+
+
+def crash_causes(rollout) -> tuple[dict[str, int], float]:
+    """The crashes of one :func:`fly` rollout: counts of "trip → crash reason" and the median number of control
+    steps from the trip to the crash."""
     from collections import Counter
 
-    from ksbo_mav.objective import SimObjective
-    from ksbo_sim.episode import REASONS, random_initial_states, simulate
+    from ksbo_sim.episode import REASONS
     from ksbo_sim.monitor import TRIP_NAMES
 
-    rng = np.random.default_rng(seed)
-    obj = SimObjective(plant=plant, monitor=monitors()[which])
-    X = random_gains(obj.profile, n, rng)
-    r = simulate(X, random_initial_states(n, rng, obj.episode), obj.episode)
+    r = rollout
     causes: Counter[str] = Counter()
     gaps = []
     for i in np.nonzero(r.reason != 0)[0]:
@@ -96,20 +104,22 @@ def main(argv: list[str] | None = None) -> None:
     print("| plant | before: complete / aborted / crashed | now: complete / aborted / crashed "
           "| completes lost (of them P < 0 before) |")
     print("|---|---|---|---|")
+    why = []
     for plant in a.plants.split(","):
-        c = plant_counts(plant, a.n, a.seed)
+        flights = fly(plant, a.n, a.seed)
+        c = plant_counts(plant, a.n, a.seed, flights)
         b, w = c["before"], c["now"]
         lost = (b == 0) & (w != 0)
         fmt = lambda o: " / ".join(str(int((o == k).sum())) for k in range(3))  # noqa: E731
         print(f"| {plant} | {fmt(b)} | {fmt(w)} | {int(lost.sum())} ({int((lost & (c['before_P'] < 0)).sum())}) |",
               flush=True)
-    if a.why:
-        for plant in a.plants.split(","):
-            for which in ("before", "now"):
-                causes, gap = crash_causes(plant, a.n, a.seed, which)
-                print(f"{plant} ({which}): {sum(causes.values())} crashes, trip → crash in {gap:.0f} steps (median): "
-                      + ", ".join(f"{k} {v}" for k, v in causes.items()))
-
+        if a.why:  # printed after the table, from the same flights
+            for which, (r, _) in flights.items():
+                causes, gap = crash_causes(r)
+                why.append(f"{plant} ({which}): {sum(causes.values())} crashes, trip → crash in {gap:.0f} steps "
+                           "(median): " + ", ".join(f"{k} {v}" for k, v in causes.items()))
+    if why:
+        print("\n".join(why))
 
 if __name__ == "__main__":
     main()
