@@ -91,8 +91,8 @@ def check_state(lim: MonitorLimits, north: float, east: float, up: float, tilt_r
     """
     if not (math.isfinite(north) and math.isfinite(up)):
         return "fence", "telemetry position is not finite"
-    stop = "" if vel is None or lim.brake_accel is None else " at the stopping point"
     v = (None, None, None) if vel is None or not all(map(math.isfinite, vel)) else vel
+    stop = "" if v[0] is None or lim.brake_accel is None else " at the stopping point"
     n_, e_, u_ = (float(stopping_point(lim, p, w)) for p, w in zip((north, east, up), v))
     if abs(n_) > lim.x_max:
         return "fence", f"|north| {abs(n_):.2f} m{stop} > {lim.x_max:g} m"

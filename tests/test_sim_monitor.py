@@ -104,6 +104,8 @@ def test_stopping_point_fence_trips_a_vehicle_racing_towards_the_box_edge() -> N
         got = mon.check_sample(lpn, None, None)
         assert (got and got[0]) == want
     assert "stopping point" in check_state(lim, 1.0, 0.0, 1.0, 0.0, None, (2.5, 0.0, 0.0))[1]
+    # a velocity that is not finite: the position only, and the message says so
+    assert check_state(lim, 1.7, 0.0, 1.0, 0.0, None, (math.nan, 0.0, 0.0)) == ("fence", "|north| 1.70 m > 1.6 m")
 
 
 def test_backup_mixer_keeps_torque_when_the_position_loop_asks_for_no_thrust() -> None:

@@ -29,7 +29,8 @@ _SAFETY_KEYS = {"x_max_m": "x_max", "y_max_m": "y_max", "z_min_m": "z_min", "z_m
 def limits_from_profile(profile: Profile, overrides: dict[str, float] | None = None) -> Limits:
     """The profile's ``[safety]`` thresholds with ``overrides`` (profile key names, e.g. ``x_max_m``) applied."""
     s = profile.safety
-    values = {field: None if getattr(s, key) is None else float(getattr(s, key)) for key, field in _SAFETY_KEYS.items()}
+    raw = {field: getattr(s, key) for key, field in _SAFETY_KEYS.items()}
+    values = {field: None if v is None else float(v) for field, v in raw.items()}  # brake_accel may be unset
     for key, value in (overrides or {}).items():
         if key in _SAFETY_KEYS:
             values[_SAFETY_KEYS[key]] = float(value)
