@@ -47,6 +47,19 @@ def test_typed_values_of_the_shipped_profiles():
     assert planar.score_spec.given() == {}
 
 
+def test_planar_profile_limits_are_the_in_process_monitors():
+    """One set of limits for the planar task: a MAVLink flight of the built-in vehicle trips where the in-process
+    monitor trips (issue 13: same limits and logic), inside the environment bounds the simulator crashes at."""
+    from ksbo_mav.mav.monitor import limits_from_profile
+    from ksbo_sim.monitor import MonitorLimits, planar_monitor_limits
+
+    lim = limits_from_profile(load_profile("sim-planar"))
+    assert lim == planar_monitor_limits()
+    env = MonitorLimits()  # the task's environment bounds
+    assert lim.x_max < env.x_max and env.z_min < lim.z_min < lim.z_max < env.z_max
+    assert lim.tilt_max_deg < env.tilt_max_deg and lim.brake_accel == 3.0
+
+
 def test_typed_defaults_match_what_the_client_uses():
     from ksbo_mav.mav.mission import Mission
     from ksbo_mav.mav.monitor import limits_from_profile
@@ -63,7 +76,7 @@ def test_typed_defaults_match_what_the_client_uses():
 
 
 @pytest.mark.parametrize("base,old,new,words", [
-    ("sim-planar", "x_max_m = 2.0", "x_max = 2.0", ["'x_max'", "[safety]", "x_max_m"]),  # typo in [safety]
+    ("sim-planar", "x_max_m = 1.6", "x_max = 2.0", ["'x_max'", "[safety]", "x_max_m"]),  # typo in [safety]
     ("sim-planar", "max_step_fraction = 0.5", "max_step = 0.5", ["'max_step'", "[trust_region]"]),
     ("sim-planar", "period_s = 6.0", "period = 6.0", ["'period'", "[mission]"]),
     ("ardupilot-copter", "[score]\n", "[score]\nmetric = \"rms\"\n", ["'metric'", "[score]", "unsafe_rms_ratio"]),
@@ -84,9 +97,9 @@ def test_unknown_keys_are_refused_naming_the_key_and_the_file(tmp_path, base, ol
 
 
 @pytest.mark.parametrize("old,new,words", [
-    ("x_max_m = 2.0", 'x_max_m = "2"', ["x_max_m", "a number"]),
-    ("x_max_m = 2.0", "x_max_m = -1.0", ["x_max_m", "positive"]),
-    ("z_max_m = 2.0", "z_max_m = -1.0", ["z_min_m", "z_max_m"]),
+    ("x_max_m = 1.6", 'x_max_m = "2"', ["x_max_m", "a number"]),
+    ("x_max_m = 1.6", "x_max_m = -1.0", ["x_max_m", "positive"]),
+    ("z_max_m = 1.8", "z_max_m = -1.0", ["z_min_m", "z_max_m"]),
     ("max_step_fraction = 0.5", "max_step_fraction = 0.0", ["max_step_fraction"]),
     ("laps = 2", "laps = 2.5", ["laps", "whole number"]),
     ("rate_hz = 50", "rate_hz = 30", ["rate_hz", "1000"]),
@@ -115,7 +128,7 @@ def test_score_keys_are_the_fields_of_one_dataclass(tmp_path):
 
 
 def test_cli_reports_a_bad_profile_in_one_line(tmp_path):
-    path = _variant(tmp_path, "sim-planar", "x_max_m = 2.0", "x_maxm = 2.0")
+    path = _variant(tmp_path, "sim-planar", "x_max_m = 1.6", "x_maxm = 2.0")
     out = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "evaluate", "--profile", str(path)],
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 2 and out.stdout == ""
