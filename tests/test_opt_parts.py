@@ -89,3 +89,29 @@ def test_order_selection_respects_max_order() -> None:
     assert set(sel.cree) == {1, 2}
     with pytest.raises(InputError, match="max_order"):
         options_for("ksbo", {"max_order": 0})
+
+
+def test_safe_ucb_margin_keeps_only_points_that_clear_the_threshold_by_the_margin() -> None:
+    """``ucb_margin``: the UCB phase's feasible set shrinks to LCB ≥ p_min + margin (the plain set without one)."""
+    from ksbo_mav.opt.acquisition import SafeUCB
+
+    class Stub:  # LCB rises along the first coordinate, 0 at 0.5; the UCB along the second
+        def bounds(self, Z: np.ndarray):
+            lo = Z[:, 0] - 0.5
+            return lo + 0.1, np.full(len(Z), 0.05), lo, Z[:, 1]
+
+        def feasible(self, Z: np.ndarray, lcb: np.ndarray) -> np.ndarray:
+            return lcb >= 0.0
+
+    Z = np.array([[0.45, 0.9], [0.52, 0.8], [0.58, 0.7], [0.7, 0.1]])
+    up, plain = SafeUCB(Stub())(Z)
+    np.testing.assert_array_equal(plain, [False, True, True, True])
+    np.testing.assert_array_equal(up, Z[:, 1])
+    _, wide = SafeUCB(Stub(), margin=0.05)(Z)
+    np.testing.assert_array_equal(wide, [False, False, True, True])  # 0.52 clears 0 but not 0.05
+    from ksbo_mav.errors import InputError
+    from ksbo_mav.opt.options import options_for
+
+    assert options_for("ksbo").ucb_margin == 0.0
+    with pytest.raises(InputError, match="ucb_margin"):
+        options_for("ksbo", {"ucb_margin": -0.1}).validate()

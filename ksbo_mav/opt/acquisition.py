@@ -47,14 +47,16 @@ class PosteriorMean:
 
 @dataclass
 class SafeUCB:
-    """The safe UCB maximiser: ``μ + β_ucb σ`` over the feasible set."""
+    """The safe UCB maximiser: ``μ + β_ucb σ`` over the feasible set; with ``margin`` > 0 over the points whose
+    LCB clears the safety threshold by ``margin`` as well."""
 
     post: Posterior
     kind: str = "ucb"
+    margin: float = 0.0
 
     def __call__(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         _, _, lo, up = self.post.bounds(Z)
-        return up, self.post.feasible(Z, lo)
+        return up, self.post.feasible(Z, lo - self.margin)
 
 
 @dataclass

@@ -49,6 +49,9 @@ class SafeBOConfig:
             ``beta_window`` scores if larger, clipped to [beta_min, beta_cap] (None: beta) (opt.calibration). A
             beta_min at or above beta keeps beta as the floor (only the widening after a bad flight acts).
         beta_quantile, beta_margin, beta_min_points, beta_window, beta_cap: see ``beta_min``.
+        ucb_margin: the safe-UCB phase queries only points whose LCB clears ``p_min`` by this much (the objective's
+            units) while any candidate does (else the plain safe set): the UCB's maximiser sits on the certified set's
+            edge, where the GP knows least. 0 = off (the plain safe set).
     """
 
     beta: float = 4.0
@@ -81,6 +84,7 @@ class SafeBOConfig:
     beta_min_points: int = 10
     beta_window: int = 5
     beta_cap: float | None = 10.0
+    ucb_margin: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -64,6 +64,8 @@ class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, Safe
             raise InputError("ard_acquisition and safety_noise_max must be non-negative (0 = off)")
         if not (0 < self.failure_scale_shrink <= 1 and 0 < self.unsafe_scale_shrink <= 1):
             raise InputError("failure_scale_shrink and unsafe_scale_shrink must be in (0, 1]")
+        if not self.ucb_margin >= 0:
+            raise InputError("ucb_margin must be non-negative (0 = off)")
         if not (0 < self.tr_min <= self.tr_init <= self.tr_max):
             raise InputError("trust region sizes must satisfy 0 < tr_min <= tr_init <= tr_max")
 

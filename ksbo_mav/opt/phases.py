@@ -41,6 +41,10 @@ def choose_rule(bo: "SafeBO", C: np.ndarray, lcb_d: np.ndarray) -> Acquisition:
     if c.rule == "ucb":
         n_expand = min(c.expansion_iters, bo.budget // PHASE_SHARE) if bo.budget > 0 else c.expansion_iters
         if bo.iteration >= n_expand:
+            if c.ucb_margin > 0:
+                wide = SafeUCB(bo, margin=c.ucb_margin)
+                if wide(C)[1].any():
+                    return wide
             return SafeUCB(bo)
         return BoundaryExpansion(bo, bo.p_min, c.boundary_tol * bo.model.signal_std)
     _, _, lcb, _ = bo.bounds(C)
