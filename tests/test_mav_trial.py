@@ -112,6 +112,24 @@ def test_fault_geofence_or_tracking_trip_aborts_restores_and_continues(rig, limi
     assert obj.fly(v.profile.default).outcome == "ok"  # the campaign can go on
 
 
+def test_crash_as_the_baseline_takes_over_is_the_trials_crash(rig, capsys):
+    """A trial that flies the whole figure-8 but leaves the vehicle in a state the baseline gains do not recover
+    (here: a crash injected at the restore's first write) is that trial's crash, live and in its tlog; the
+    monitored hold after the figure-8 flew the trial's gains (the trip would have been the trial's too)."""
+    sim, v, base, tmp = rig
+    obj = MavlinkObjective(v, base, tmp / "trials")
+    assert obj.fly(v.profile.default).outcome == "ok"  # no fault: a plain trial, no late verdict
+    v.params.set_verified("SIM_CRASH_WRITES", 10.0)  # the trial writes 9 gains; the restore's first write crashes
+    f = obj.fly(v.profile.preset("scg"))
+    assert f.outcome == "crash" and f.P < 0 and not f.score["safe"] and f.meta["restored"]
+    assert "right after the trial, as the baseline gains took over" in f.meta["message"]
+    assert f.score["L"] == 600  # it flew the whole figure-8
+    capsys.readouterr()
+    assert main(["score", f.meta["tlog"], "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["score"]["P"] == f.P and out["trial"]["outcome"] == "crash"  # the tlog tells the same story
+
+
 def test_fault_failed_verify_aborts_and_restores(tmp_path):
     # A profile whose box exceeds what the vehicle accepts (the simulator refuses POS_X_P > 4): the vehicle
     # echoes the old value, the client reports the refusal, aborts the trial and restores the baseline.

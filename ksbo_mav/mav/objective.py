@@ -30,7 +30,7 @@ from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.params import VerifyError
 from ksbo_mav.mav.snapshot import fsync_write
 from ksbo_mav.mav.tlog import TlogWriter
-from ksbo_mav.mav.trajectory import TrialRecorder, end_text, ref_text, start_text
+from ksbo_mav.mav.trajectory import TrialRecorder, after_text, end_text, ref_text, start_text
 from ksbo_mav.mav.vehicle import LinkLost, PreflightError, Vehicle
 from ksbo_mav.objective import Flight, Trajectory
 
@@ -57,7 +57,8 @@ class MavlinkObjective:
         baseline: {vehicle parameter name: value} restored after every trial (the snapshot's values).
         out_dir: where ``trial_NNN.tlog`` / ``.json`` go.
         safety: overrides of the profile's ``[safety]`` thresholds (``x_max_m`` ...).
-        settle_s: hover time with the trial gains before the figure-8 starts.
+        settle_s: hover time with the trial gains before the figure-8 starts, and holding its end point after it
+            (monitored; then the baseline is restored).
         link_wait_s: after a link loss, how long to wait for the vehicle to come back to restore the baseline.
         first_index: number of the next trial (a resumed campaign continues its numbering).
     """
@@ -119,7 +120,9 @@ class MavlinkObjective:
                 outcome, message, L, stop = T.SIGINT, "interrupted by the user", self._steps(rec), exc
             except KsboError as exc:
                 outcome, message, L = T.ERROR, str(exc), self._steps(rec)
-            restored = self._finish(rec, outcome, L)
+            restored, late = self._finish(rec, outcome, L)
+            if late is not None:  # the vehicle crashed right after the trial, as the baseline took over
+                outcome, message = late
         finally:
             link.taps.remove(rec.feed)
             link.tlog.close()
@@ -170,11 +173,20 @@ class MavlinkObjective:
         g.follow(lambda j: m.setpoint_at(j * dt / 1000.0), n, dt,
                  lambda s: self._check(s, m.setpoint_at(min(max(s.time_boot_ms - t0, 0), n * dt) / 1000.0)[0]),
                  self.log, resend_s=0.1, lag_ms=self._lag)
-        g.hold_at(m.setpoint_at(n * dt / 1000.0)[0])  # end on a position-only target (no dead reckoning)
+        end = m.setpoint_at(n * dt / 1000.0)[0]
+        # The trial's gains fly on until the baseline is restored: hold the end point with them for as long as the
+        # pre-trial settle, still monitored. Gains that start to diverge in the last steps of the figure-8 trip
+        # here (and count as this trial's abort) instead of tumbling the vehicle during the restore, unseen.
+        g.follow(lambda j: (end, None, None), settle, dt, lambda s: self._check(s, None), self.log)
+        g.hold_at(end)  # end on a position-only target (no dead reckoning)
         return n
 
-    def _finish(self, rec: TrialRecorder, outcome: T, L: int) -> bool:
-        """End marker, hold (when it is ours to command), restore the baseline with verification, park."""
+    def _finish(self, rec: TrialRecorder, outcome: T, L: int) -> tuple[bool, tuple[T, str] | None]:
+        """End marker, hold (when it is ours to command), restore the baseline with verification, park.
+
+        Returns whether the baseline was restored, and for a trial that completed but left the vehicle in a state
+        the baseline did not recover from (it crashed or disarmed within ``settle_s`` of the restore) that trial's
+        new outcome and message."""
         v = self.vehicle
         g = v.guided
         try:
@@ -187,18 +199,31 @@ class MavlinkObjective:
             ours = outcome not in (T.PILOT, T.CRASH, T.LINK) and g.armed
             if ours and g.position() is not None and outcome is not T.OK:
                 g.hold_at(g.position())  # stop where we are: position-only targets never time out
+            flying = g.armed
             v.restore(self.baseline_values)
+            late = None
             if outcome.gain_caused and outcome is not T.CRASH and g.armed:
                 g.wait(1.0)  # let the baseline gains settle the vehicle before anything else
+            elif outcome is T.OK and flying:
+                # Gains that end the figure-8 in a violent oscillation (below the tilt limit) can leave the vehicle
+                # in a state the baseline does not catch: watch the restore and its first moments, blame the trial.
+                if g.armed:
+                    # (at least 1.5 s: autopilots send HEARTBEAT at 1 Hz)
+                    g.wait(max(self.settle_s, 1.5), lambda: self.monitor.check_heartbeat(g.heartbeat) is not None)
+                bad = self.monitor.check_heartbeat(g.heartbeat)
+                if bad is not None and bad[0] == T.CRASH:
+                    late = (T.CRASH, f"{bad[1]} right after the trial, as the baseline gains took over")
+                    if rec.t0 is not None:
+                        v.statustext(after_text(self.mission.tag, T.CRASH))
             if g.armed and g.in_mode("guided"):
                 g.park()
-            return True
+            return True, late
         except KeyboardInterrupt:
             self.log("second Ctrl-C during restore: baseline may not be restored")
-            return False
+            return False, None
         except KsboError as exc:
             self.log(f"restore failed: {exc}")
-            return False
+            return False, None
 
     def _record(self, i: int, stem: Path, x: np.ndarray, rec: TrialRecorder, outcome: T, message: str,
                 restored: bool, started: float, label: str, link_stats: dict[str, int]) -> Flight:

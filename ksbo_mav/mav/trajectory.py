@@ -34,6 +34,7 @@ MAX_GAP = 5
 START_RE = re.compile(r"^ksbo (f8h?) start t0=(\d+) n=(\d+) dt=(\d+) w=(\d+)$")
 REF_RE = re.compile(r"^ksbo f8h? ref rms=([0-9.eE+-]+)$")
 END_RE = re.compile(r"^ksbo f8h? end L=(\d+) (\S+)$")
+AFTER_RE = re.compile(r"^ksbo f8h? after (\S+)$")
 _TAG_KIND = {tag: kind for kind, tag in KINDS.items()}
 
 
@@ -49,6 +50,12 @@ def ref_text(tag: str, rms_ref: float) -> str:
 
 def end_text(tag: str, L: int, outcome: str) -> str:
     return f"ksbo {tag} end L={L} {outcome}"[:50]
+
+
+def after_text(tag: str, outcome: str) -> str:
+    """Marker sent after the end marker when a trial that ended "ok" turns out otherwise (the vehicle crashed as
+    the baseline took over): the trial's outcome becomes ``outcome``."""
+    return f"ksbo {tag} after {outcome}"[:50]
 
 
 @dataclass
@@ -114,6 +121,10 @@ class TrialRecorder:
         m = END_RE.match(text)
         if m and self.t0 is not None and self.L is None:
             self.L, self.outcome = int(m.group(1)), m.group(2)
+            return
+        m = AFTER_RE.match(text)
+        if m and self.L is not None and self.outcome == "ok":
+            self.outcome = m.group(1)
 
     @property
     def finished(self) -> bool:

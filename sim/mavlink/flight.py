@@ -113,7 +113,7 @@ class Flight:
         if not self.landed and not force:
             return "Disarm: vehicle is flying (use force)"
         if not self.landed:
-            self._crash(STATUS_EMERGENCY, "disarmed in flight")
+            self.crash(STATUS_EMERGENCY, "disarmed in flight")
             return None
         self.armed = False
         self.notify(SEV_INFO, "Disarming motors")
@@ -212,7 +212,7 @@ class Flight:
         self.est_pos, self.est_vel = self.est.update(st.pos, st.vel, acc)
         if st.crashed:
             fence = st.crashed in getattr(self.model, "fence_codes", ())
-            self._crash(STATUS_CRITICAL if fence else STATUS_EMERGENCY, st.crash_reason or "crash")
+            self.crash(STATUS_CRITICAL if fence else STATUS_EMERGENCY, st.crash_reason or "crash")
         elif self.mode is Mode.LAND and st.pos[2] > TOUCHDOWN_DOWN_M and self.land_down >= 0.0:
             self.landed, self.armed = True, False
             self._place(np.array([st.pos[0], st.pos[1], 0.0]))
@@ -246,7 +246,8 @@ class Flight:
             self.notify(SEV_WARNING, "Guided setpoint timeout: holding position")
         return Setpoint(pos=self.hold.copy(), vel=np.zeros(3), acc=nan3)
 
-    def _crash(self, status: int, reason: str) -> None:
+    def crash(self, status: int, reason: str) -> None:
+        """The vehicle crashes: disarmed, ``status`` (STATUS_CRITICAL or STATUS_EMERGENCY) and an EMERGENCY text."""
         self.armed, self.crash_status, self.crash_reason = False, status, reason
         self.target, self.takeoff_alt = None, None
         self.notify(SEV_EMERGENCY, f"Crash: {reason}; disarmed")

@@ -29,7 +29,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from ksbo_sim.errors import SimInputError
 from ksbo_sim.estimator import Estimator
 from ksbo_sim.mavlink.commands import Commands
-from ksbo_sim.mavlink.flight import SEV_NOTICE, Flight
+from ksbo_sim.mavlink.flight import SEV_NOTICE, STATUS_EMERGENCY, Flight
 from ksbo_sim.mavlink.link import Link
 from ksbo_sim.mavlink.params import ParamTable
 from ksbo_sim.mavlink.personality import Personality
@@ -38,7 +38,7 @@ from ksbo_sim.vehicle import ParamSpec, VehicleModel
 
 #: Fault switches: volatile (never persisted), so a restarted vehicle never boots faulty.
 FAULT_PARAMS = ("SIM_PKT_LOSS_IN", "SIM_PKT_LOSS_OUT", "SIM_DELAY_MS", "SIM_MUTE_S", "SIM_PILOT_MODE",
-                "SIM_PSET_FAIL", "SIM_FAULT_AFTER")
+                "SIM_PSET_FAIL", "SIM_FAULT_AFTER", "SIM_CRASH_WRITES")
 
 
 def endpoint_specs() -> list[ParamSpec]:
@@ -50,6 +50,8 @@ def endpoint_specs() -> list[ParamSpec]:
         ParamSpec("SIM_PILOT_MODE", -1, -1, 2**31 - 1, "INT32", "custom_mode a pilot switches to, one-shot; -1 off"),
         ParamSpec("SIM_PSET_FAIL", 0.0, 0.0, 1.0,
                   description="fraction of PARAM_SETs of non-SIM_ parameters refused (old value echoed)"),
+        ParamSpec("SIM_CRASH_WRITES", 0, 0, 2**31 - 1, "INT32",
+                  "the vehicle crashes (disarms, EMERGENCY) at this many more vehicle-parameter writes; 0 off"),
         ParamSpec("SIM_FAULT_AFTER", 0.0, 0.0, 3600.0,
                   description="faults act this long [s sim] into the guided setpoint stream; 0 = at once"),
         ParamSpec("SIM_SP_TIMEOUT", 3.0, 0.1, 60.0, description="velocity/accel setpoint timeout -> hold [s]"),
@@ -118,6 +120,11 @@ class Server:
             f.land_speed = value
 
     def _write_fault(self, name: str) -> str | None:
+        n = int(self.params["SIM_CRASH_WRITES"])
+        if n > 0 and not name.startswith("SIM_"):  # counts writes down; the last one crashes an armed vehicle
+            self.params.force("SIM_CRASH_WRITES", n - 1)
+            if n == 1 and self.flight.armed:
+                self.flight.crash(STATUS_EMERGENCY, "injected (SIM_CRASH_WRITES)")
         p = self.params["SIM_PSET_FAIL"]
         if p > 0 and not name.startswith("SIM_") and self._faults_active() and self._fault_rng.random() < p:
             return f"Param write failed: {name} (SIM_PSET_FAIL)"
