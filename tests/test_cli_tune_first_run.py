@@ -149,28 +149,9 @@ def test_plan_names_the_options_the_profile_implies_and_the_users():
     from ksbo_mav.profiles import load_profile
 
     ap, planar = load_profile("ardupilot-copter"), load_profile("sim-planar")
-    assert CampaignConfig(dir="x").method == "auto"  # the tune default: chosen by the profile
-    note = _options_note(CampaignConfig(dir="x", options={"max_aborts": 4}), ap, "ksbo-adaptive")
+    assert CampaignConfig(dir="x").method == "ksbo-adaptive"  # the tune default
+    note = _options_note(CampaignConfig(dir="x", options={"max_aborts": 4}), ap)
     assert "backup_beta=0.5 (profile: the backup covers its trials)" in note and "max_aborts=4" in note
-    assert _options_note(CampaignConfig(dir="x", options={"backup_beta": 1.0}), ap, "ksbo-adaptive") == \
-        "; options backup_beta=1.0"
-    assert _options_note(CampaignConfig(dir="x"), planar, "ksbo") == ""
-    assert _options_note(CampaignConfig(dir="x", method="ksbo"), ap, "ksbo") == ""
-
-
-def test_auto_method_follows_the_profiles_backup_declaration():
-    """`tune` without --method: ksbo-adaptive where the backup covers the trials (copters), ksbo elsewhere; an
-    explicit method is kept; a bad one is refused before anything connects."""
-    from ksbo_mav.campaign.config import CampaignConfig, default_method, resolve_method
-    from ksbo_mav.errors import InputError
-    from ksbo_mav.profiles import load_profile
-
-    copters = [load_profile(n) for n in ("ardupilot-copter", "px4-copter")]
-    assert all(p.safety.backup_covers_trials for p in copters)
-    assert [default_method(p) for p in copters] == ["ksbo-adaptive", "ksbo-adaptive"]
-    planar = load_profile("sim-planar")
-    assert not planar.safety.backup_covers_trials and default_method(planar) == "ksbo"
-    assert resolve_method("auto", planar) == "ksbo" and resolve_method("standard", copters[0]) == "standard"
-    assert CampaignConfig(dir="x", method="auto").validate().method == "auto"
-    with pytest.raises(InputError, match="unknown method 'fast'; choose auto or one of"):
-        CampaignConfig(dir="x", method="fast").validate()
+    assert _options_note(CampaignConfig(dir="x", options={"backup_beta": 1.0}), ap) == "; options backup_beta=1.0"
+    assert _options_note(CampaignConfig(dir="x"), planar) == ""
+    assert _options_note(CampaignConfig(dir="x", method="ksbo"), ap) == ""

@@ -20,7 +20,7 @@ class CampaignConfig:
 
     dir: str
     profile: str | None = None
-    method: str = "auto"  # "auto": from the profile (:func:`default_method`), else a name in ksbo_mav.opt.METHODS
+    method: str = "ksbo-adaptive"  # a vehicle has a monitor: aborts are censored, capped and re-flown around
     budget: int = 30
     seed: int = 0
     prior: str = "auto"  # "sim", "local", "none", "auto" (sim for the built-in planar vehicle, else local)
@@ -40,8 +40,8 @@ class CampaignConfig:
         from ksbo_mav.opt.options import options_for
         from ksbo_mav.profiles import load_profile
 
-        if self.method != "auto" and self.method not in METHODS:
-            raise InputError(f"unknown method {self.method!r}; choose auto or one of {', '.join(METHODS)}")
+        if self.method not in METHODS:
+            raise InputError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
         for name, lo in (("budget", 1), ("confirm", 0), ("n_prior", 0)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
@@ -58,7 +58,7 @@ class CampaignConfig:
             raise InputError(f"settle_s must be >= 0, got {self.settle_s}")
         if self.profile is not None:
             load_profile(self.profile)  # InputError for an unknown name or a bad file, before any connection
-        options_for(resolve_method(self.method, None), optimizer_options("none", self.options))
+        options_for(self.method, optimizer_options("none", self.options))
         return self
 
     def to_dict(self) -> dict[str, Any]:
@@ -90,24 +90,6 @@ class CampaignConfig:
 #: certified with β 0.5 instead of 5 while the abort budget lasts (BENCHMARKS.md, issue 13: ArduCopter SITL -60 %
 #: with it, +13 % without; on the planar task, whose tuned gains include the attitude loop, it crashes).
 BACKUP_BETA = 0.5
-
-
-def default_method(profile: Any) -> str:
-    """The optimiser ``tune`` uses unless told: ``ksbo-adaptive`` where the profile declares that the monitor's
-    backup covers its trials (``[safety] backup_covers_trials``: the copters, whose position loops are clipped by
-    a lean-angle limit), else ``ksbo``.
-
-    Why (BENCHMARKS.md, issue 13): on the ArduCopter/PX4 profiles ksbo-adaptive with ``backup_beta`` moves the
-    gains (JSBSim copter lap-2 RMS -57 % / -74 %, ksbo -2 % / -8 %); on the planar task, whose tuned gains include
-    the attitude loop and whose failures are flips the backup cannot always catch, ksbo re-flies as well or better
-    with fewer crashes (in-process plant suite, item AB; MAVLink campaigns, item AC).
-    """
-    return "ksbo-adaptive" if profile is not None and profile.safety.backup_covers_trials else "ksbo"
-
-
-def resolve_method(method: str, profile: Any) -> str:
-    """``method``, or :func:`default_method` of ``profile`` for ``"auto"``."""
-    return default_method(profile) if method == "auto" else method
 
 
 def profile_defaults(method: str, profile: Any) -> dict[str, Any]:

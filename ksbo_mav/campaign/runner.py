@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.campaign.access import check_identity, write_accepted
-from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, profile_defaults, resolve_method
+from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, profile_defaults
 from ksbo_mav.campaign.ending import end_flight, safe_stop
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.layout import CampaignDir
@@ -105,19 +105,13 @@ class Campaign:
         return "\n".join([
             f"vehicle: sysid {v.identity.sysid}, {v.stack.name} {v.identity.firmware}"
             + (f", {v.gains.generation} parameter names" if v.gains.generation else ""),
-            f"profile: {v.profile.name}; method {self._method()}"
-            + (" (auto: from the profile)" if self.cfg.method == "auto" else "") + f", {self.cfg.budget} trials "
-            f"(+ prior '{self._prior_kind()}'), seed {self.cfg.seed}"
-            + _options_note(self.cfg, v.profile, self._method()),
+            f"profile: {v.profile.name}; method {self.cfg.method}, {self.cfg.budget} trials "
+            f"(+ prior '{self._prior_kind()}'), seed {self.cfg.seed}" + _options_note(self.cfg, v.profile),
             "gains (profile name, vehicle name, current value, optimiser range):", *rows,
             flight_plan(v.profile, n_prior, self.cfg.budget, self.cfg.confirm, self.cfg.settle_s),
             f"at the end: {'write the best gains (accept)' if self.cfg.accept else 'restore the baseline'}, "
             f"then {self.cfg.end}",
             f"logs: {self.dir.trials}, snapshot {self.dir.snapshot_stem.parent}"])
-
-    def _method(self) -> str:
-        """The optimiser: the configured one, or for ``auto`` the profile's (campaign.config.default_method)."""
-        return resolve_method(self.cfg.method, self.vehicle.profile if self.vehicle is not None else None)
 
     def _prior_kind(self) -> str:
         k = self.cfg.prior
@@ -191,9 +185,9 @@ class Campaign:
         if self.resume and len(done) > 1:
             self.log(f"resume: replaying {len(done)} journalled trial(s) through the optimiser (nothing re-flown)")
         try:
-            result = optimize(replay, x0, bounds, prior=prior, budget=self.cfg.budget, method=self._method(),
+            result = optimize(replay, x0, bounds, prior=prior, budget=self.cfg.budget, method=self.cfg.method,
                               seed=self.cfg.seed, p_min=0.0, check_x0=True,
-                              **optimizer_options(self._prior_kind(), self.cfg.options, self._method(),
+                              **optimizer_options(self._prior_kind(), self.cfg.options, self.cfg.method,
                                                   self.vehicle.profile))
         except UnsafeStartError:
             raise VehicleError(f"the baseline gains flew unsafe (P = {done[0].P:.3f} < 0): safe BO needs a safe "
@@ -286,7 +280,7 @@ class Campaign:
             n_unsafe=int(sum(e.P < 0 for e in opt)),
             n_aborted=sum(e.outcome != "crash" for e in gain_aborts),
             n_crashed=sum(e.outcome == "crash" for e in gain_aborts), n_failed=len(journal.of("failed")),
-            method=self._method(), orders=list(result.orders) if result.orders else None, wall_s=wall,
+            method=self.cfg.method, orders=list(result.orders) if result.orders else None, wall_s=wall,
             dir=str(self.dir.root), ended=ended)
         fsync_write(self.dir.result, json.dumps(summary.to_dict(), indent=1))
         try:
@@ -299,9 +293,9 @@ class Campaign:
         return summary
 
 
-def _options_note(cfg: CampaignConfig, profile: Any, method: str) -> str:
+def _options_note(cfg: CampaignConfig, profile: Any) -> str:
     """The optimiser options that differ from the method's defaults (the profile's, then the user's)."""
-    implied = profile_defaults(method, profile)
+    implied = profile_defaults(cfg.method, profile)
     parts = [f"{k}={v} (profile: the backup covers its trials)" for k, v in implied.items() if k not in cfg.options]
     parts += [f"{k}={v}" for k, v in cfg.options.items()]
     return f"; options {', '.join(parts)}" if parts else ""

@@ -24,10 +24,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--dir", help="campaign directory (default: a new directory under ./ksbo-demo-runs)")
     p.add_argument("--budget", type=positive_int, default=20, help="optimiser trials (20)")
     p.add_argument("--seed", type=int, default=0, help="optimiser seed (0)")
-    p.add_argument("--method", default="auto",
-                   help="optimiser (default auto, as `tune`: on the built-in planar vehicle that is ksbo, the paper's "
-                        "method, with its kernel selected on a prior flown in the simulator; try --method "
-                        "ksbo-adaptive, tune's choice for the copter profiles)")
+    p.add_argument("--method", default="ksbo",
+                   help="optimiser (default ksbo, the paper's method, with its kernel selected on a prior flown in "
+                        "the simulator; `tune` defaults to ksbo-adaptive: try --method ksbo-adaptive)")
     p.set_defaults(func=run)
 
 

@@ -26,14 +26,13 @@ def add_parser(subparsers) -> None:
                    "its stored settings; refused if its profile now gives another search box or mission")
     add_connection_args(p)
     p.add_argument("--profile", help="vehicle profile (default: from the vehicle's identity)")
-    p.add_argument("--method", help="optimiser (default auto: chosen by the profile). ksbo-adaptive (auto where the "
-                                    "profile's [safety] backup_covers_trials is true, the copters): safe BO that "
-                                    "learns its safety scale, treats aborted trials as censored, caps them at "
-                                    "max_aborts, re-flies its best candidates and explores beyond the certified set "
-                                    "where the backup covers the trials. ksbo (auto elsewhere, e.g. the simulated "
-                                    "planar task, which tunes an attitude loop): the paper's method, every trial "
-                                    "certified, no abort cap unless --option max_aborts=N. Also standard, safeopt, "
-                                    "... (BENCHMARKS.md, issue 13 items AB and AC)")
+    p.add_argument("--method", help="optimiser: ksbo-adaptive (default: safe BO that learns its safety scale, "
+                                    "treats aborted trials as censored, caps them at max_aborts and re-flies its "
+                                    "best candidates; on profiles whose backup covers the trials it also explores "
+                                    "beyond the certified set), ksbo (the paper's method, no abort cap unless "
+                                    "--option max_aborts=N; on the simulated planar task, which tunes an attitude "
+                                    "loop, it re-flies as well or better with fewer crashes: BENCHMARKS.md issue 13 "
+                                    "item AB), standard, safeopt, ...")
     p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30); a "
                    "local prior's flights (8) and the confirmation re-flights come on top: --dry-run prints the total")
     p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
