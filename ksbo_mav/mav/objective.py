@@ -185,8 +185,8 @@ class MavlinkObjective:
         """End marker, hold (when it is ours to command), restore the baseline with verification, park.
 
         Returns whether the baseline was restored, and for a trial that completed but left the vehicle in a state
-        the baseline did not recover from (it crashed or disarmed within ``settle_s`` of the restore) that trial's
-        new outcome and message."""
+        the baseline did not recover from (it crashed or disarmed during the restore or within ``max(settle_s, 1.5)``
+        s of vehicle time after it) that trial's new outcome and message."""
         v = self.vehicle
         g = v.guided
         try:
