@@ -120,13 +120,15 @@ class Server:
             f.land_speed = value
 
     def _write_fault(self, name: str) -> str | None:
+        if name.startswith("SIM_"):  # the fault switches themselves always get through
+            return None
         n = int(self.params["SIM_CRASH_WRITES"])
-        if n > 0 and not name.startswith("SIM_"):  # counts writes down; the last one crashes an armed vehicle
+        if n > 0:  # counts vehicle-parameter writes down; the last one crashes an armed vehicle
             self.params.force("SIM_CRASH_WRITES", n - 1)
             if n == 1 and self.flight.armed:
                 self.flight.crash(STATUS_EMERGENCY, "injected (SIM_CRASH_WRITES)")
         p = self.params["SIM_PSET_FAIL"]
-        if p > 0 and not name.startswith("SIM_") and self._faults_active() and self._fault_rng.random() < p:
+        if p > 0 and self._faults_active() and self._fault_rng.random() < p:
             return f"Param write failed: {name} (SIM_PSET_FAIL)"
         return None
 
