@@ -135,13 +135,20 @@ def main() -> None:
         write_section("MAVLink tuning campaign (issue 7)", body)
         print(body)
         return
+    from ksbo_mav.cli.tune import option_arg
+
+    from ksbo_mav.errors import InputError
+
+    try:
+        options = dict(option_arg(o) for o in args.option)  # parsed as `ksbo-mav tune --option` parses them
+    except InputError as exc:
+        ap.error(str(exc))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for method in args.methods:
         for seed in args.seeds:
-            r = run_one(seed, args.budget, out, method,
-                        {k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)})
+            r = run_one(seed, args.budget, out, method, options)
             print(json.dumps(r), flush=True)
             rows.append(r)
             (out / "results.json").write_text(json.dumps(rows, indent=1))  # after each: a crash keeps the rest
