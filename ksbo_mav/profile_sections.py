@@ -84,7 +84,10 @@ class TrustRegion:
 class MissionSpec:
     """``[mission]``: the figure-8 flown in every trial (``figure8-xz``: planar x-z; ``figure8-ne``: horizontal,
     north = scale_m sin wt, east = scale_east_m sin 2wt at center_up_m). ``lead_in_s`` (figure8-ne only) starts the
-    pattern from rest over that many seconds (:mod:`ksbo_sim.lead_in`) instead of with a velocity step."""
+    pattern from rest over that many seconds (:mod:`ksbo_sim.lead_in`) instead of with a velocity step.
+    ``start_speed_mps`` (figure8-xz only) starts each trial moving: the vehicle passes the figure-8 start at a random
+    velocity of up to that speed, as the paper's task starts its episodes (:mod:`ksbo_mav.mav.approach`); 0 starts
+    from hover."""
 
     type: str = "figure8-xz"
     scale_m: float = 0.75
@@ -94,6 +97,7 @@ class MissionSpec:
     laps: int = 2
     rate_hz: int = 50
     lead_in_s: float = 0.0
+    start_speed_mps: float = 0.0
 
     def __post_init__(self) -> None:
         if self.type not in MISSION_TYPES:
@@ -105,6 +109,11 @@ class MissionSpec:
         if self.lead_in_s and self.type != "figure8-ne":
             raise InputError("lead_in_s applies to figure8-ne missions only (figure8-xz is the paper's task, "
                              "which starts from a random initial velocity)")
+        if not 0 <= self.start_speed_mps <= 3.0:
+            raise InputError(f"start_speed_mps must be in [0, 3] m/s, got {self.start_speed_mps:g}")
+        if self.start_speed_mps and self.type != "figure8-xz":
+            raise InputError("start_speed_mps applies to figure8-xz missions only (the planar task's random "
+                             "initial velocity; figure8-ne missions start from rest with lead_in_s)")
         if 1000 % self.rate_hz:
             raise InputError(f"rate_hz {self.rate_hz} must divide 1000")
 

@@ -100,13 +100,15 @@ def report(rows: list[dict], command: str) -> str:
         "",
         "Each campaign: `ksbo-mav sim --lockstep` in its own process, the tuner listening on UDP 127.0.0.1, "
         "prior = 36 in-process simulator episodes around the baseline (nothing flown), then the optimiser's trials "
-        "(trial 0 = baseline gains) and 1 confirmation flight of the recommendation; each trial = hover at the "
-        "start, write + verify gains, 1 s settle, 2-lap figure-8 (600 setpoints at 50 Hz simulated), restore + "
-        "verify the baseline. The tuner's monitor uses the sim-planar profile's [safety] limits, which are the "
-        "in-process monitor's (since issue 13 item AD); a trial holds its end point with its gains for 1 s more, "
-        "monitored, and is watched for 1.5 s after the restore. 'Re-flown P (MAVLink)' is the confirmation flight "
-        "from a "
-        "hover start; 'E[P]' re-flies the same gains in process over the 8 fixed initial conditions under the "
+        "(trial 0 = baseline gains) and 1 confirmation flight of the recommendation; each trial = hover short of "
+        "the start, write + verify gains, 1 s settle, an approach flown with the trial's gains that passes the "
+        "start at the trial's random velocity (up to 1 m/s, the task's initial conditions; since issue 13 item AE, "
+        "before it the trials started from a hover at the start), 2-lap figure-8 (600 setpoints at 50 Hz "
+        "simulated), restore + verify the baseline. The tuner's monitor uses the sim-planar profile's [safety] "
+        "limits, which are the in-process monitor's (since issue 13 item AD); a trial holds its end point with its "
+        "gains for 1 s more, monitored, and is watched for 1.5 s after the restore. 'Re-flown P (MAVLink)' is the "
+        "confirmation flight (from its own random moving start); 'E[P]' re-flies the same gains in process over "
+        "the 8 fixed initial conditions under the "
         "in-process monitor (an aborted re-flight scores below 0). 'Same optimiser in process': the same method, "
         "prior, bounds and seed on the in-process monitored simulator (random initial conditions).",
         "",

@@ -166,7 +166,7 @@ def test_fault_stops_campaign_with_baseline_restored(rig, fault, outcome):
         v.params.set_verified(name, value)
     obj = MavlinkObjective(v, base, tmp / "trials")
     with pytest.raises(TrialStopped, match="baseline gains restored and verified") as info:
-        obj.fly(v.profile.preset("scg"))
+        obj.fly(v.profile.default)
     f = info.value.flight
     assert f.outcome == outcome and f.P < 0 and f.meta["restored"]
     assert 0 < f.score["L"] < 600
@@ -183,7 +183,7 @@ def test_fault_packet_loss_20_percent(rig):
     v.params.set_verified("SIM_PKT_LOSS_OUT", 0.2)
     obj = MavlinkObjective(v, base, tmp / "trials")
     try:
-        f = obj.fly(v.profile.preset("scg"))
+        f = obj.fly(v.profile.default)
     except TrialStopped as exc:  # a command lost 3 times in a row is a clear stop, not a silent failure
         f = exc.flight
     assert f.meta["restored"]

@@ -203,7 +203,8 @@ def test_resume_flies_the_stored_profile_file_and_refuses_a_changed_box_or_missi
         capsys.readouterr()
         assert len(_journal(d)) == n
         for old, new, word in (("max_step_fraction = 0.5", "max_step_fraction = 0.4", "search box"),
-                               ("period_s = 6.0", "period_s = 7.0", "mission period 6.0 -> 7.0")):
+                               ("period_s = 6.0", "period_s = 7.0", "mission period 6.0 -> 7.0"),
+                               ("start_speed_mps = 1.0", "start_speed_mps = 0.5", "mission start_speed 1.0 -> 0.5")):
             assert old in src
             prof.write_text(src.replace(old, new))
             load_profile(prof)  # a valid profile, only a different one
@@ -211,4 +212,10 @@ def test_resume_flies_the_stored_profile_file_and_refuses_a_changed_box_or_missi
             err = capsys.readouterr().err.strip()  # (tune's progress display may leave an empty line before it)
             assert err.startswith("error: ") and "\n" not in err and word in err and "changed since" in err
             assert len(_journal(d)) == n
+        # A campaign made before trials could start moving flew them from hover: not the profile's mission now.
+        prof.write_text(src)
+        del saved["mission"]["start_speed"]
+        (d / "campaign.json").write_text(json.dumps(saved))
+        assert main(args) == 2
+        assert "mission start_speed 0.0 -> 1.0" in capsys.readouterr().err
         assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)

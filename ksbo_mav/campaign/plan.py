@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from ksbo_mav.mav.approach import approach_seconds
 from ksbo_mav.profiles import Profile
 
 #: Per trial on top of the figure-8: move to the start and hover there (2 s), the settle with the trial gains,
@@ -26,7 +27,8 @@ def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settl
                 "(planar x-z)")
     east_box = f"|east| <= {s.y_max_m:g} m, " if math.isfinite(s.y_max_m) else ""
     stop = "" if s.brake_accel_mps2 is None else f" (at the stopping point, braking {s.brake_accel_mps2:g} m/s^2)"
-    trial_s = m.laps * m.period_s + 2 * settle_s + OVERHEAD_S  # settle before, monitored hold after
+    approach = approach_seconds(m.start_speed_mps)  # a moving start's approach, at most
+    trial_s = m.laps * m.period_s + 2 * settle_s + approach + OVERHEAD_S  # settle before, monitored hold after
     flights = 1 + n_prior + max(0, budget - 1) + confirm
     total_min = flights * trial_s / 60.0
     packs = math.ceil(total_min / (0.8 * PACK_MIN))
@@ -36,7 +38,9 @@ def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settl
         f"<= {s.tilt_max_deg:g} deg, tracking error <= {s.tracking_error_max_m:g} m, heartbeat gap <= "
         f"{s.heartbeat_timeout_s:g} s",
         f"flights: {flights} trials (1 baseline + {n_prior} prior + {max(0, budget - 1)} optimiser + {confirm} "
-        f"confirmation) x ~{trial_s:.0f} s ({m.laps} x {m.period_s:g} s figure-8 + 2 x settle + ~{OVERHEAD_S:g} s) "
+        f"confirmation) x ~{trial_s:.0f} s ({m.laps} x {m.period_s:g} s figure-8 + 2 x settle"
+        + (f" + {approach:.1f} s approach to a moving start (up to {m.start_speed_mps:g} m/s)" if approach else "")
+        + f" + ~{OVERHEAD_S:g} s) "
         f"= ~{total_min:.0f} min in the air, plus takeoff and landing",
         f"batteries: ~{packs} pack(s) of {PACK_MIN:g} min hover used to 80 % (an estimate; swap with Ctrl-C, land, "
         "then --resume)",

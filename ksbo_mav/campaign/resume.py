@@ -15,6 +15,10 @@ from ksbo_mav.mav.mission import Mission
 from ksbo_mav.profiles import load_profile
 
 
+#: Mission fields added after campaigns stored their mission, with the value the older ksbo-mav flew.
+ADDED = {"start_speed": 0.0}
+
+
 def check_unchanged(d: CampaignDir, profile_ref: str | None, log: Callable[[str], None]) -> None:
     """Before a resume connects: InputError (one line, naming what changed) if the campaign's profile
     (``profile_ref``, the file or name it was started with; None: the detected one stored in campaign.json) now
@@ -32,7 +36,9 @@ def check_unchanged(d: CampaignDir, profile_ref: str | None, log: Callable[[str]
     if old is None:
         log("campaign.json does not record its mission (made by an older ksbo-mav): flying the profile's current "
             f"one ({mission['kind']}, lead-in {mission['lead_in']:g} s)")
-    elif old != mission:
+    else:
+        old = {**ADDED, **old}
+    if old is not None and old != mission:
         diff = [f"{k} {old.get(k)!r} -> {mission[k]!r}" for k in mission if old.get(k) != mission[k]]
         changed.append("mission " + ", ".join(diff))
     if changed:

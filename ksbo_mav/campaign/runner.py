@@ -27,8 +27,10 @@ from ksbo_mav.campaign.replay import JournalReplay
 from ksbo_mav.campaign.resume import check_unchanged
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
 from ksbo_mav.errors import InputError, KsboError, UnsafeStartError, VehicleError
+from ksbo_mav.mav.approach import check_moving_start
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.link import Endpoint
+from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.mav.objective import MavlinkObjective, TrialStopped
 from ksbo_mav.mav.snapshot import fsync_write, load_snapshot, write_snapshot
 from ksbo_mav.mav.vehicle import Vehicle
@@ -219,6 +221,7 @@ class Campaign:
         base: dict[str, float] | None = None
         try:
             base = self._baseline_values(v)
+            check_moving_start(v.mission, limits_from_profile(v.profile, self.cfg.safety))
             if not self.resume:
                 self._create(v, base)
             x0 = v.gains.from_vehicle(base)
@@ -227,7 +230,7 @@ class Campaign:
             v.setup_streams()
             self.objective = MavlinkObjective(v, base, self.dir.trials, safety=self.cfg.safety,
                                               settle_s=self.cfg.settle_s, first_index=self.dir.next_trial_index(),
-                                              log=self.log)
+                                              start_seed=self.cfg.seed, log=self.log)
             started = time.time()
             self._baseline(x0)
             with threadpool_limits(1):

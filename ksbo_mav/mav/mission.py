@@ -52,6 +52,7 @@ class Mission:
     rate_hz: int
     score_section: tuple[tuple[str, Any], ...] = ()
     lead_in: float = 0.0  # s (figure8-ne): start from rest, ksbo_sim.lead_in
+    start_speed: float = 0.0  # m/s (figure8-xz): trials start moving, ksbo_mav.mav.approach
 
     @classmethod
     def from_profile(cls, profile: Profile) -> "Mission":
@@ -59,7 +60,8 @@ class Mission:
         m = profile.mission_spec
         east = m.scale_east_m if m.scale_east_m is not None else m.scale_m
         return cls(m.type, float(m.scale_m), float(east), float(m.period_s), float(m.center_up_m), int(m.laps),
-                   int(m.rate_hz), tuple(sorted(profile.score_spec.given().items())), float(m.lead_in_s))
+                   int(m.rate_hz), tuple(sorted(profile.score_spec.given().items())), float(m.lead_in_s),
+                   float(m.start_speed_mps))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly fields (stored with a campaign, so that a resume flies the same pattern)."""

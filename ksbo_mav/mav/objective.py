@@ -2,8 +2,10 @@
 
 One trial = hover at the figure-8 start with the baseline gains, write the trial gains (verified), settle, fly the
 figure-8 with the monitor watching every sample, then restore the baseline (verified by a fresh read) before
-anything else happens. Every trial leaves a two-way tlog and a JSON record next to it; its score is computed from
-exactly what the tlog holds (:mod:`ksbo_mav.mav.trajectory`), so ``ksbo-mav score`` reproduces it.
+anything else happens. With a moving start (``[mission] start_speed_mps``, :mod:`ksbo_mav.mav.approach`) the hover
+is short of the start and the trial's gains fly a monitored approach that passes the start at the trial's random
+velocity as the figure-8 begins. Every trial leaves a two-way tlog and a JSON record next to it; its score is
+computed from exactly what the tlog holds (:mod:`ksbo_mav.mav.trajectory`), so ``ksbo-mav score`` reproduces it.
 
 Aborts: gain-caused (geofence, tilt, tracking error, crash) -> hold, restore, the trial scores as unsafe and the
 campaign goes on (a crashed *simulator* is re-armed; a crashed real vehicle stops the campaign). Pilot mode change,
@@ -25,6 +27,7 @@ import numpy as np
 
 from ksbo_mav.errors import KsboError, VehicleError
 from ksbo_mav.jsonio import dumps
+from ksbo_mav.mav.approach import Approach, check_moving_start, start_velocity
 from ksbo_mav.mav.monitor import Monitor, limits_from_profile
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.params import VerifyError
@@ -61,11 +64,13 @@ class MavlinkObjective:
             (monitored; then the baseline is restored).
         link_wait_s: after a link loss, how long to wait for the vehicle to come back to restore the baseline.
         first_index: number of the next trial (a resumed campaign continues its numbering).
+        start_seed: seed of the moving starts' random velocities (with the trial number; missions with
+            ``start_speed`` only).
     """
 
     def __init__(self, vehicle: Vehicle, baseline: dict[str, float], out_dir: str | Path, *,
                  safety: dict[str, float] | None = None, settle_s: float = 1.0, link_wait_s: float = 30.0,
-                 first_index: int = 0, log: Callable[[str], None] = lambda s: None) -> None:
+                 first_index: int = 0, start_seed: int = 0, log: Callable[[str], None] = lambda s: None) -> None:
         self.vehicle = vehicle
         self.profile = vehicle.profile
         self.baseline_values = dict(baseline)
@@ -73,9 +78,11 @@ class MavlinkObjective:
         self.out_dir = Path(out_dir)
         self.mission = vehicle.mission
         self.monitor = Monitor(limits_from_profile(self.profile, safety), vehicle.stack.modes["guided"])
+        check_moving_start(self.mission, self.monitor.limits)
         self.settle_s = settle_s
         self.link_wait_s = link_wait_s
         self.index = first_index
+        self.start_seed = start_seed
         self.log = log
         self.last_flight: Flight | None = None
         #: 3-D missions: the baseline flight's lap-2 RMS; every trial's P is relative to it (Mission.score).
@@ -90,8 +97,10 @@ class MavlinkObjective:
         brought to the figure-8 start; :class:`TrialStopped` after a trial that must end the campaign."""
         v = self.vehicle
         x = v.check_trial_gains(gains, self.baseline)
+        m = self.mission
+        approach = Approach(m.start_ned(), start_velocity(m.kind, m.start_speed, self.start_seed, self.index), m.dt)
         try:
-            v.ensure_airborne(self.log)
+            v.ensure_airborne(self.log, at=approach.begin)
         except PreflightError:
             raise
         except VehicleError as exc:  # link trouble while getting ready is not the gains' fault either
@@ -108,7 +117,7 @@ class MavlinkObjective:
         outcome, message, L, stop = T.OK, "", 0, None
         try:
             try:
-                L = self._run(x, rec)
+                L = self._run(x, rec, approach)
             except _Abort as a:
                 outcome, message = T(a.outcome), a.message
                 L = self._steps(rec)
@@ -129,7 +138,8 @@ class MavlinkObjective:
             link.tlog = None
         link_stats = {"lost_packets": rec.lost, "rate_reasserts": v.telemetry.reasserts - reasserts0,
                       **_lag_stats(self._lag, self.mission.window[0])}
-        flight = self._record(i, stem, x, rec, outcome, message, restored, started, label, link_stats)
+        flight = self._record(i, stem, x, rec, outcome, message, restored, started, label,
+                              {"link": link_stats, "start_velocity_ned": approach.velocity.tolist()})
         self.last_flight = flight
         if stop is not None:
             raise stop
@@ -156,13 +166,17 @@ class MavlinkObjective:
         if bad:
             raise _Abort(*bad)
 
-    def _run(self, x: np.ndarray, rec: TrialRecorder) -> int:
+    def _run(self, x: np.ndarray, rec: TrialRecorder, approach: Approach) -> int:
         v, m = self.vehicle, self.mission
         g = v.guided
-        start = m.start_ned()
         v.write_gains(x)
         settle = max(1, int(round(self.settle_s * m.rate_hz)))
-        g.follow(lambda j: (start, None, None), settle, m.dt_ms, lambda s: self._check(s, None), self.log)
+        g.follow(lambda j: (approach.begin, None, None), settle, m.dt_ms, lambda s: self._check(s, None), self.log)
+        if approach.steps:  # the trial's gains bring the vehicle to the start at its random velocity
+            t_a = int(v.telemetry.clock.last_ms)
+            g.follow(approach.setpoint, approach.steps, m.dt_ms,
+                     lambda s: self._check(s, approach.setpoint(
+                         min(max(s.time_boot_ms - t_a, 0) // m.dt_ms, approach.steps))[0]), self.log, resend_s=0.1)
         t0 = int(v.telemetry.clock.last_ms)
         n, dt = m.steps, m.dt_ms
         v.statustext(start_text(m.tag, t0, n, dt, m.window[0]))
@@ -226,7 +240,7 @@ class MavlinkObjective:
             return False, None
 
     def _record(self, i: int, stem: Path, x: np.ndarray, rec: TrialRecorder, outcome: T, message: str,
-                restored: bool, started: float, label: str, link_stats: dict[str, int]) -> Flight:
+                restored: bool, started: float, label: str, extra: dict[str, Any]) -> Flight:
         n = self.mission.steps
         if rec.t0 is not None and rec.finished:
             traj, info = rec.trajectory("mavlink")
@@ -236,7 +250,7 @@ class MavlinkObjective:
         if outcome is T.OK and not score["complete"]:
             # Not the gains' fault: the lap could not be measured. Say why, and whether packets were lost.
             why = score.get("incomplete") or f"telemetry gaps in the scored lap ({info.get('unfilled')})"
-            lost = link_stats["lost_packets"]
+            lost = extra["link"]["lost_packets"]
             cause = (f"{lost} packet(s) lost on the link (sequence gaps)" if lost else
                      "no packet was lost (sequence numbers complete): the vehicle sent less - another ground "
                      "station's stream request, or a saturated link")
@@ -247,6 +261,7 @@ class MavlinkObjective:
             # the last setpoint): the computer caused it, not the gains.
             outcome, message = T.CLIENT, (f"{message}, {stall:.0f} ms (vehicle time) after the tuner's setpoint "
                                           "stream stalled: this computer could not keep up with the vehicle")
+        link_stats = extra["link"]
         if outcome is T.OK and link_stats.get("late_fraction", 0.0) > MAX_LATE_FRACTION:
             # The vehicle flew stale setpoints: the tracking error measures this computer, not the gains.
             outcome, message = T.CLIENT, (
@@ -259,7 +274,7 @@ class MavlinkObjective:
         meta = {"trial": i, "label": label, "outcome": outcome.value, "outcome_text": outcome.text,
                 "message": message, "restored": restored, "tlog": str(stem.with_suffix(".tlog")),
                 "record": str(stem.with_suffix(".json")), "wall_s": time.time() - started,
-                "vehicle_values": self.vehicle.gains.to_vehicle(x), "trajectory": info, "link": link_stats}
+                "vehicle_values": self.vehicle.gains.to_vehicle(x), "trajectory": info, **extra}
         doc = {"gains": x.tolist(), "names": self.profile.names, "score": score, **meta}
         fsync_write(stem.with_suffix(".json"), dumps(doc, indent=1))
         if outcome is not T.OK:

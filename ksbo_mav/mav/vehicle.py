@@ -115,11 +115,13 @@ class Vehicle:
     def restore(self, values: dict[str, float], attempts: int = 3, retries: int = 8) -> None:
         self.tuning.restore(values, attempts, retries)
 
-    def ensure_airborne(self, log: Callable[[str], None] = lambda s: None) -> None:
-        """Hovering at the figure-8 start in guided/offboard (takes off from the ground if needed)."""
+    def ensure_airborne(self, log: Callable[[str], None] = lambda s: None, at: np.ndarray | None = None) -> None:
+        """Hovering at the figure-8 start (or ``at``, NED: a moving start's approach) in guided/offboard (takes off
+        from the ground if needed)."""
         m = self.mission
         # Start tolerance: 5 % of the figure-8's size (0.5 m for the 20 m copter pattern, 4 cm for the planar one).
-        self.guided.ensure_airborne(float(m.center_up), m.start_ned(), tol=max(0.03, 0.05 * m.scale), log=log)
+        self.guided.ensure_airborne(float(m.center_up), m.start_ned() if at is None else np.asarray(at, float),
+                                    tol=max(0.03, 0.05 * m.scale), log=log)
 
     def land(self, timeout_s: float = 120.0) -> None:
         self.guided.land(timeout_s)
