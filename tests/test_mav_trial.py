@@ -99,7 +99,7 @@ def test_trial_live_score_equals_tlog_score(rig, capsys):
     assert_baseline(sim)
 
 
-@pytest.mark.parametrize("limit,outcome,text", [({"x_max_m": 0.5}, "fence", "|north| "),
+@pytest.mark.parametrize("limit,outcome,text", [({"x_max_m": 0.6}, "fence", "|north| "),
                                                 ({"tracking_error_max_m": 0.1}, "track", "tracking error")])
 def test_fault_geofence_or_tracking_trip_aborts_restores_and_continues(rig, limit, outcome, text):
     sim, v, base, tmp = rig

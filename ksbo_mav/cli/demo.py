@@ -8,6 +8,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from ksbo_mav.campaign.config import CampaignConfig
 from ksbo_mav.cli.common import positive_int
 from ksbo_mav.errors import VehicleError
 from ksbo_sim.errors import SimStartError
@@ -24,9 +25,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--dir", help="campaign directory (default: a new directory under ./ksbo-demo-runs)")
     p.add_argument("--budget", type=positive_int, default=20, help="optimiser trials (20)")
     p.add_argument("--seed", type=int, default=0, help="optimiser seed (0)")
-    p.add_argument("--method", default="ksbo",
-                   help="optimiser (default ksbo, the paper's method, with its kernel selected on a prior flown in "
-                        "the simulator; `tune` defaults to ksbo-adaptive: try --method ksbo-adaptive)")
+    p.add_argument("--method", default=CampaignConfig.method,
+                   help=f"optimiser (default {CampaignConfig.method}, as for `tune`; --method ksbo is the paper's "
+                        "method), its kernel selected on a prior of simulator episodes")
     p.set_defaults(func=run)
 
 

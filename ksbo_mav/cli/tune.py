@@ -31,8 +31,8 @@ def add_parser(subparsers) -> None:
                                     "best candidates; on profiles whose backup covers the trials it also explores "
                                     "beyond the certified set), ksbo (the paper's method, no abort cap unless "
                                     "--option max_aborts=N; on the simulated planar task it aborts fewer trials "
-                                    "but its recommendation failed from moving starts more often: BENCHMARKS.md "
-                                    "issue 13 items AB and AD), standard, safeopt, ...")
+                                    "but its recommendations re-fly lower: BENCHMARKS.md issue 13 items AB, AD and "
+                                    "AE), standard, safeopt, ...")
     p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30); a "
                    "local prior's flights (8) and the confirmation re-flights come on top: --dry-run prints the total")
     p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
