@@ -145,7 +145,8 @@ class Guided:
             hold = self._hold
             if hold is not None:
                 self.send(hold)  # one step with the hold target, then the rest of the chunk
-            self.cmd.require("simulator step", CMD_SIM_STEP, chunk, timeout=5.0)
+            # (a lossy link loses a command or its ACK now and then: re-sending a step only advances time further)
+            self.cmd.require("simulator step", CMD_SIM_STEP, chunk, timeout=5.0, retries=6)
             self.link.pump(0.0)
             self.check_link()
             elapsed += chunk

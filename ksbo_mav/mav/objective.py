@@ -203,6 +203,7 @@ class MavlinkObjective:
         s of vehicle time after it) that trial's new outcome and message."""
         v = self.vehicle
         g = v.guided
+        restored = False
         try:
             if outcome is T.LINK:
                 deadline = time.monotonic() + self.link_wait_s
@@ -215,6 +216,7 @@ class MavlinkObjective:
                 g.hold_at(g.position())  # stop where we are: position-only targets never time out
             flying = g.armed
             v.restore(self.baseline_values)
+            restored = True  # verified by a fresh read: what follows only watches the vehicle
             late = None
             if outcome.gain_caused and outcome is not T.CRASH and g.armed:
                 g.wait(1.0)  # let the baseline gains settle the vehicle before anything else
@@ -233,11 +235,12 @@ class MavlinkObjective:
                 g.park()
             return True, late
         except KeyboardInterrupt:
-            self.log("second Ctrl-C during restore: baseline may not be restored")
-            return False, None
+            self.log("second Ctrl-C " + ("after the restore (baseline verified)" if restored else
+                                         "during restore: baseline may not be restored"))
+            return restored, None
         except KsboError as exc:
-            self.log(f"restore failed: {exc}")
-            return False, None
+            self.log(f"after the restore (baseline verified): {exc}" if restored else f"restore failed: {exc}")
+            return restored, None
 
     def _record(self, i: int, stem: Path, x: np.ndarray, rec: TrialRecorder, outcome: T, message: str,
                 restored: bool, started: float, label: str, extra: dict[str, Any]) -> Flight:
