@@ -82,6 +82,43 @@ def test_campaign_with_accept_leaves_best_gains(tmp_path):
         assert (tmp_path / "c" / "accepted.param").exists()
 
 
+@pytest.mark.timeout(240)
+def test_accept_refuses_gains_that_failed_their_confirmation_flight(tmp_path, capsys):
+    """--accept leaves the best gains only if every confirmation flight of them completed safely: here the vehicle
+    crashes as the confirmation's gains are written (SIM_CRASH_WRITES, set from a second connection once the last
+    optimiser trial is journalled). The baseline is restored instead, the summary says why, `ksbo-mav accept`
+    refuses before connecting, and `--force` writes them."""
+    from ksbo_mav.mav.vehicle import Vehicle
+    from ksbo_mav.mav.link import Endpoint
+
+    d = tmp_path / "c"
+    with sim_and_endpoint() as (sim, ep):
+        def inject(event) -> None:
+            if event.kind == "opt" and event.n_opt == cfg.budget:
+                other = Vehicle.connect(Endpoint("udpout", "127.0.0.1", sim.port), "sim-planar", sysid=250,
+                                        compid=190)
+                try:
+                    other.params.set_verified("SIM_CRASH_WRITES", 1.0, retries=8)
+                finally:
+                    other.close()
+
+        cfg = CampaignConfig(dir=str(d), budget=4, seed=1, prior="none", accept=True, end="hold")
+        summary = Campaign(cfg, ep, log=lambda s: None, progress=inject).run()
+        confirm = [e for e in _journal(d) if e["kind"] == "confirm"]
+        assert len(confirm) == 1 and confirm[0]["outcome"] == "crash"
+        assert not summary.accepted and summary.accept_refused.startswith(f"confirmation trial {confirm[0]['trial']}")
+        assert summary.best["confirm_failures"] and not (d / "accepted.param").exists()
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+        port = ["--udp", f"127.0.0.1:{ep.port}"]
+        capsys.readouterr()
+        assert main(["accept", str(d), *port]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "failed 1 of 1 confirmation" in err and "--force" in err and "\n" not in err
+        assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
+        assert main(["accept", str(d), "--force", *port]) == 0
+        assert fresh_read(sim) == pytest.approx(summary.best["values"], rel=1e-6)
+
+
 @pytest.mark.timeout(180)
 def test_sigint_mid_campaign_restores_baseline(tmp_path):
     d = tmp_path / "camp"

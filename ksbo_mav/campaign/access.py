@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ksbo_mav.campaign.journal import JournalEntry
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.link import Endpoint
@@ -59,11 +60,24 @@ def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], 
         v.close()
 
 
+def confirm_failures(confirms: list[JournalEntry]) -> list[str]:
+    """Why the recommended gains should not be left on the vehicle: one line per confirmation flight that was
+    aborted, crashed or scored P < 0 (empty: every confirmation flight completed safely, or there was none)."""
+    return [f"confirmation trial {e.trial}: {e.outcome.text}" if e.outcome != "ok" else
+            f"confirmation trial {e.trial}: P = {e.P:.3f} < 0" for e in confirms if e.outcome != "ok" or e.P < 0]
+
+
 def accept_campaign(path: str | Path, endpoint: Endpoint, log: Callable[[str], None] = print,
-                    timeout: float = 15.0, sysid: int | None = None, compid: int | None = None) -> dict[str, float]:
-    """Write a finished campaign's best gains (checked against the snapshot's trust region), verify, export."""
+                    timeout: float = 15.0, sysid: int | None = None, compid: int | None = None,
+                    force: bool = False) -> dict[str, float]:
+    """Write a finished campaign's best gains (checked against the snapshot's trust region), verify, export.
+    Refused (InputError, nothing connected) when a confirmation flight of those gains failed, unless ``force``."""
     d = CampaignDir.at(path)
     result = d.read_result()
+    failed = result["best"].get("confirm_failures") or []
+    if failed and not force:
+        raise InputError(f"the recommended gains failed {len(failed)} of {len(result['best']['P_confirm_all'])} "
+                         f"confirmation flight(s) ({'; '.join(failed)}); not written. --force writes them anyway")
     snap = load_snapshot(d.root)
     v = Vehicle.connect(endpoint, snap.profile, sysid=sysid, compid=compid, timeout=timeout, log=log)
     try:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.campaign.access import check_identity, write_accepted
+from ksbo_mav.campaign.access import check_identity, confirm_failures, write_accepted
 from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, profile_defaults
 from ksbo_mav.campaign.ending import end_flight, safe_stop
 from ksbo_mav.campaign.journal import Journal, JournalEntry
@@ -263,13 +263,19 @@ class Campaign:
         assert v is not None and journal is not None
         opt = journal.of("opt")
         best_values = v.gains.to_vehicle(best)
-        if self.cfg.accept:
+        # Gains that failed a confirmation flight are never left on the vehicle by themselves.
+        failures = confirm_failures(journal.of("confirm"))
+        accepted = self.cfg.accept and not failures
+        if accepted:
             v.restore(best_values)  # write + fresh read-back of every gain
             write_accepted(self.dir, base, best_values, v)
             self.log("accepted: best gains written and verified on the vehicle")
         else:
             v.restore(base)
             self.log("baseline gains restored and verified by a fresh read")
+            if self.cfg.accept:
+                self.log(f"--accept refused: {'; '.join(failures)} (`ksbo-mav accept {self.dir.root} --force` "
+                         "writes them anyway)")
         on_vehicle = {n: v.params.table[n].value for n in base}
         ended = self._end_flight(error=False)
         gain_aborts = [e for e in journal.entries if e.outcome.gain_caused]
@@ -278,8 +284,10 @@ class Campaign:
                       "trial": self.baseline_trial, "rms_m": opt[0].rms if opt else None},
             best={"x": best.tolist(), "values": best_values, "P_model": float(result.fun),
                   "P_confirm": float(np.mean(confirms)) if confirms else None, "P_confirm_all": confirms,
+                  "confirm_failures": failures,
                   "unused_journal_trials": [e.trial for e in self.unused]},
-            accepted=self.cfg.accept, on_vehicle=on_vehicle, n_trials=len(journal.entries),
+            accepted=accepted, accept_refused="; ".join(failures) if self.cfg.accept else "",
+            on_vehicle=on_vehicle, n_trials=len(journal.entries),
             n_unsafe=int(sum(e.P < 0 for e in opt)),
             n_aborted=sum(e.outcome != "crash" for e in gain_aborts),
             n_crashed=sum(e.outcome == "crash" for e in gain_aborts), n_failed=len(journal.of("failed")),

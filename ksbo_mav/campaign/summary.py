@@ -53,6 +53,8 @@ class CampaignSummary:
     dir: str
     ended: str  # "landed", "holding", "" (already on the ground)
     plots: dict[str, str] = field(default_factory=dict)
+    #: With --accept: why the best gains were not left on the vehicle (a failed confirmation flight), else "".
+    accept_refused: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -11,8 +11,11 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser("accept", help="write a finished campaign's best gains (verified), export .param",
                               description="Writes DIR/result.json's best gains, checked against the snapshot's "
                                           "baseline trust region, verifies them, and writes DIR/accepted.param, "
-                                          "DIR/accepted.params and DIR/diff.txt.")
+                                          "DIR/accepted.params and DIR/diff.txt. Gains that failed a confirmation "
+                                          "flight (aborted, crashed or P < 0) are refused unless --force.")
     p.add_argument("dir", metavar="DIR")
+    p.add_argument("--force", action="store_true",
+                   help="write the best gains even if a confirmation flight of them failed")
     add_connection_args(p)
     p.set_defaults(func=run)
 
@@ -23,7 +26,7 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_mav.campaign import accept_campaign
 
     best = accept_campaign(args.dir, endpoint_from_args(args), log=lambda s: print(s), timeout=args.timeout,
-                            sysid=args.sysid, compid=args.compid)
+                            sysid=args.sysid, compid=args.compid, force=args.force)
     print(Path(args.dir, "diff.txt").read_text(), end="")
     print(f"accepted {len(best)} gain(s); exported {Path(args.dir, 'accepted.param')} and .params")
     return 0

@@ -46,7 +46,9 @@ def add_parser(subparsers) -> None:
                         "uncertified gains the monitor's backup covers; --option backup_beta=null turns that off "
                         "(BENCHMARKS.md, issue 13)")
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
-    p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end")
+    p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end (not if a "
+                   "confirmation flight of them aborted, crashed or scored P < 0: then the baseline is restored and "
+                   "`ksbo-mav accept DIR --force` writes them anyway)")
     p.add_argument("--end", choices=("land", "hold"), default="land",
                    help="after the campaign: land and disarm (default) or hold position where it is")
     p.add_argument("--dry-run", action="store_true", help="connect, print the plan, change nothing")
@@ -136,7 +138,9 @@ def print_summary(s: Any, log) -> None:
         f"{s.n_crashed}, failed for reasons unrelated to the gains {s.n_failed}; {s.wall_s:.0f} s")
     for name, v in t["values"].items():
         log(f"  {name:<16} {b['values'][name]:>12.6g} -> {v:<12.6g}")
-    log("vehicle holds: " + ("the best gains (accepted)" if s.accepted else "the baseline gains (restored, verified)")
+    held = ("the best gains (accepted)" if s.accepted else "the baseline gains (restored, verified"
+            + (f"; --accept refused: {s.accept_refused})" if s.accept_refused else ")"))
+    log("vehicle holds: " + held
         + {"landed": "; landed and disarmed", "holding": "; hovering (--end hold)"}.get(s.ended, ""))
     log(f"logs: {s.dir}/trials  journal: {s.dir}/journal.jsonl  result: {s.dir}/result.json")
     for name, path in s.plots.items():
