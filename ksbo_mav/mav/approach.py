@@ -8,9 +8,10 @@ item AD: recommendations confirmed at 0.79-0.88 from hover re-flew at 0.34-0.41 
 
 With ``[mission] start_speed_mps`` > 0 each trial draws its start velocity ``u`` (seeded by the campaign seed and
 the trial number, so a resumed campaign flies the same starts) and flies an *approach* with the trial's gains
-before the figure-8: from rest at ``start - D u/|u|`` it accelerates at :data:`ACCEL` m/s^2 to ``u``, cruises
-:data:`CRUISE_S` s and passes the start at ``u`` exactly when the figure-8's first setpoint goes out. The approach
-is monitored like the figure-8 (a trip there is the trial's abort) and not scored.
+before the figure-8: its setpoints start from rest at ``start - D u/|u|``, accelerate at :data:`ACCEL` m/s^2 to
+``u``, cruise :data:`CRUISE_S` s and reach the start at ``u`` just as the figure-8's first setpoint goes out (the
+vehicle follows with its gains' tracking lag). The approach is monitored like the figure-8 (a trip there is the
+trial's abort) and not scored.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from ksbo_sim.monitor import MonitorLimits
 if TYPE_CHECKING:
     from ksbo_mav.mav.mission import Mission
 
-#: Acceleration of the approach (m/s^2): gentle next to the figure-8's own (up to 2.9 m/s^2).
+#: Acceleration of the approach (m/s^2): about the figure-8's own peak (1.75 m/s^2).
 ACCEL = 2.0
 #: Constant-velocity part of the approach before the start (s): the acceleration transient dies down.
 CRUISE_S = 0.3
