@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from ksbo_mav.mav.approach import approach_seconds
+from ksbo_mav.mav.approach import approach_distance, approach_seconds
 from ksbo_mav.profiles import Profile
 
 #: Per trial on top of the figure-8: move to the start and hover there (2 s), the settle with the trial gains,
@@ -25,6 +25,9 @@ def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settl
     else:
         area = (f"figure-8 {2 * m.scale_m:g} m along x, {m.scale_m:g} m tall around {m.center_up_m:g} m height "
                 "(planar x-z)")
+        if m.start_speed_mps:
+            reach = approach_distance(m.start_speed_mps, 1.0 / m.rate_hz)
+            area += f"; approaches to the moving starts fly within {reach:.2f} m of the figure-8 start"
     east_box = f"|east| <= {s.y_max_m:g} m, " if math.isfinite(s.y_max_m) else ""
     stop = "" if s.brake_accel_mps2 is None else f" (at the stopping point, braking {s.brake_accel_mps2:g} m/s^2)"
     approach = approach_seconds(m.start_speed_mps)  # a moving start's approach, at most

@@ -108,13 +108,18 @@ def check_moving_start(mission: "Mission", limits: MonitorLimits) -> None:
         raise InputError(why)
 
 
+def approach_distance(speed: float, dt: float) -> float:
+    """Length (m) of the approach to a start at ``speed`` m/s (the farthest point from the start it flies)."""
+    return Approach(np.zeros(3), np.array([speed, 0.0, 0.0]), dt).distance
+
+
 def approach_outside(start: np.ndarray, v_max: float, dt: float, limits: MonitorLimits) -> str | None:
     """Why a moving start of up to ``v_max`` m/s from ``start`` (NED) could trip the abort box before the gains
     fly a step of the figure-8 (None when every direction fits): the approach begins up to its length away from
     the start, and the stopping-point fence sees the start at full speed ``v²/(2 brake)`` further on."""
     if v_max <= 0:
         return None
-    reach = Approach(start, np.array([v_max, 0.0, 0.0]), dt).distance
+    reach = approach_distance(v_max, dt)
     if limits.brake_accel:
         reach = max(reach, v_max * v_max / (2.0 * limits.brake_accel))
     north, up = float(start[0]), -float(start[2])
