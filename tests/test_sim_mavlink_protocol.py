@@ -11,10 +11,11 @@ import socket
 import struct
 import subprocess
 import sys
+import time
 
 import pytest
 
-from ksbo_sim.testing import Client, SimProcess, running_sim
+from ksbo_sim.testing import MASK_POS, Client, SimProcess, running_sim
 
 from ksbo_mav.profiles import load_profile
 
@@ -213,3 +214,19 @@ def test_out_address_receives_without_talking_first():
     finally:
         listener.close()
         assert sim.stop() == 0
+
+
+def test_lockstep_slower_than_real_time_still_heartbeats_every_wall_second():
+    """A client stepping slowly (here 4 steps per wall second, as a lossy link's re-sends make it) keeps getting a
+    HEARTBEAT each wall second: a ground station's wall-clock heartbeat timeout must measure the link, not the
+    step rate (the simulated clock's own 1 Hz heartbeat would come every 12.5 wall seconds)."""
+    with running_sim("--lockstep") as (sim, cli):
+        cli.hello()
+        cli.drain()
+        beats, t_end = 0, time.monotonic() + 4.0
+        while time.monotonic() < t_end:
+            cli.setpoint((0.0, 0.0, -1.0), mask=MASK_POS)  # one 20 ms step, used or not
+            deadline = time.monotonic() + 0.25
+            while (m := cli.recv(["HEARTBEAT", "LOCAL_POSITION_NED"], max(0.0, deadline - time.monotonic()))):
+                beats += m.get_type() == "HEARTBEAT"
+        assert beats >= 3

@@ -10,8 +10,9 @@ Lockstep protocol (``--lockstep``): simulated time never advances on its own.
 2. COMMAND_LONG MAV_CMD_USER_2 (31011), p1 = seconds: advance that many seconds (rounded up to whole control
    periods), streaming telemetry on the simulated clock as usual, then COMMAND_ACK. Used to wait for takeoff,
    landing or a hold without streaming setpoints.
-3. While nothing advances time, a HEARTBEAT is still sent once per wall-clock second (time frozen) so ground
-   stations keep the link; nothing else changes.
+3. At least one HEARTBEAT goes out per wall-clock second: while nothing advances time (time frozen), and while
+   simulated time runs slower than real time (a lossy link makes the client re-send steps), so that a ground
+   station's wall-clock heartbeat timeout measures the link, not the step rate; nothing else changes.
 
 Real time (default) runs one control period per ``ctrl_dt / speedup`` wall seconds.
 """
@@ -176,7 +177,6 @@ class Server:
                 self.link.flush()
             if self.params["SIM_FAULT_AFTER"] > 0:
                 self._apply_faults()
-        self._last_activity = time.monotonic()
 
     # --- messages --------------------------------------------------------------------------------------
     def dispatch(self, msg) -> None:
@@ -225,7 +225,6 @@ class Server:
             signal.signal(sig, _stop)
         dt_wall = self.model.ctrl_dt / self.speedup if not self.lockstep else math.inf
         next_step = time.monotonic()
-        self._last_activity = next_step
         next_idle_hb = next_step
         self.telemetry.send_due(self.now_us)
         self.link.flush()
@@ -240,10 +239,10 @@ class Server:
             now = time.monotonic()
             if self.lockstep:
                 if now >= next_idle_hb:
-                    if now - self._last_activity >= 1.0:
+                    if now - self.telemetry.heartbeat_wall >= 1.0:
                         self.telemetry.send(HEARTBEAT, self.now_us)
                         self.link.flush()
-                    next_idle_hb = now + 1.0
+                    next_idle_hb = self.telemetry.heartbeat_wall + 1.0
                 continue
             if now - next_step > 0.25:  # far behind (CPU-bound at a high speed-up): drop the backlog
                 next_step = now

@@ -38,6 +38,7 @@ class Telemetry:
         self.due = {m: 0 for m in self.intervals}
         self.boot_unix_us = int(time.time() * 1e6)
         self.drop_rate = 0.0
+        self.heartbeat_wall = 0.0  # time.monotonic() of the last HEARTBEAT sent
         self.thrust_max = float(getattr(flight.model, "thrust_max", 1.0))
 
     # --- scheduling ------------------------------------------------------------------------------------
@@ -76,6 +77,7 @@ class Telemetry:
     def send(self, msg_id: int, now_us: int) -> bool:
         f, mav, ms = self.flight, self.mav, (now_us // 1000) & 0xFFFFFFFF
         if msg_id == HEARTBEAT:
+            self.heartbeat_wall = time.monotonic()  # (lockstep: at least one per wall second, server.run)
             mode = f.mode
             base = 1 | 16 | (8 if mode is Mode.GUIDED else 0) | (128 if f.armed else 0)
             mav.heartbeat_send(2, self.p.autopilot, base, self.p.custom_mode(mode), f.system_status, 3)
