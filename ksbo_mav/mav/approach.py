@@ -17,7 +17,8 @@ trial's abort) and not scored.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -62,28 +63,29 @@ class Approach:
     start: np.ndarray
     velocity: np.ndarray
     dt: float
-    speed: float = field(init=False)
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "speed", float(np.linalg.norm(self.velocity)))
+    # (derived once: setpoint() runs twice per control step, for the stream and for the monitor's reference)
+    @cached_property
+    def speed(self) -> float:
+        return float(np.linalg.norm(self.velocity))
 
-    @property
+    @cached_property
     def steps(self) -> int:
         """Control steps from :attr:`begin` to the start (the acceleration, then at least ``CRUISE_S``)."""
         return math.ceil(approach_seconds(self.speed) / self.dt - 1e-9) if self.speed > 0 else 0
 
-    @property
+    @cached_property
     def _accel_s(self) -> float:
         return self.speed / ACCEL
 
-    @property
+    @cached_property
     def distance(self) -> float:
         """Length of the approach (m)."""
         if not self.steps:
             return 0.0
         return self.speed * (0.5 * self._accel_s + (self.steps * self.dt - self._accel_s))
 
-    @property
+    @cached_property
     def begin(self) -> np.ndarray:
         """(3,) NED point where the vehicle hovers before the approach (the start for a start from hover)."""
         if not self.steps:

@@ -245,6 +245,7 @@ class MavlinkObjective:
     def _record(self, i: int, stem: Path, x: np.ndarray, rec: TrialRecorder, outcome: T, message: str,
                 restored: bool, started: float, label: str, extra: dict[str, Any]) -> Flight:
         n = self.mission.steps
+        link_stats = extra["link"]
         if rec.t0 is not None and rec.finished:
             traj, info = rec.trajectory("mavlink")
         else:
@@ -253,7 +254,7 @@ class MavlinkObjective:
         if outcome is T.OK and not score["complete"]:
             # Not the gains' fault: the lap could not be measured. Say why, and whether packets were lost.
             why = score.get("incomplete") or f"telemetry gaps in the scored lap ({info.get('unfilled')})"
-            lost = extra["link"]["lost_packets"]
+            lost = link_stats["lost_packets"]
             cause = (f"{lost} packet(s) lost on the link (sequence gaps)" if lost else
                      "no packet was lost (sequence numbers complete): the vehicle sent less - another ground "
                      "station's stream request, or a saturated link")
@@ -264,7 +265,6 @@ class MavlinkObjective:
             # the last setpoint): the computer caused it, not the gains.
             outcome, message = T.CLIENT, (f"{message}, {stall:.0f} ms (vehicle time) after the tuner's setpoint "
                                           "stream stalled: this computer could not keep up with the vehicle")
-        link_stats = extra["link"]
         if outcome is T.OK and link_stats.get("late_fraction", 0.0) > MAX_LATE_FRACTION:
             # The vehicle flew stale setpoints: the tracking error measures this computer, not the gains.
             outcome, message = T.CLIENT, (
