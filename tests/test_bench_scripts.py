@@ -77,9 +77,22 @@ def test_best_known_counts_the_frozen_tables():
     frozen = plants.frozen_best()
     assert len(frozen) >= 10 and all(-1.0 <= v <= 1.0 for v, _ in frozen.values())
     assert frozen["delay 40ms"][0] == pytest.approx(0.953) and "record lost" in frozen["delay 40ms"][1]
-    # a planar plant's best known is at least the frozen value (and the oracle's re-flight)
+    # a planar plant's best known is at least the frozen value, the oracle's and the safe climbs' re-flights
     best = plants.best_known([{"plant": "delay 40ms", "EP": 0.4, "method": "ksbo", "mode": "strict", "seed": 0}])
-    assert best["delay 40ms"][0] == pytest.approx(0.953)
+    assert best["delay 40ms"][0] > 0.98 and best["delay 40ms"][1].startswith("safe climb from a0")
+
+
+def test_safe_climb_steps_only_to_gains_safe_from_every_start():
+    climb = _load("diag_safe_climb")
+    c = climb.Climb("nominal", 0, lam=6, generations=3, n_random=2)
+    rec = c.run(log=lambda s: None)
+    assert rec["starts"] == 10 and rec["generations"] == 3 and rec["episodes"] == 10 * (1 + 3 * 6) + 200
+    assert rec["minP32"] >= 0 and rec["EP32"] > 0.19  # a0 scores about 0.19; a step is taken only upwards
+    path = rec["path"]
+    assert path[0][0] == 0 and [p[0] for p in path] == sorted(p[0] for p in path)
+    for gen, _, ep, u in path[1:]:  # every accepted point completes from every start
+        P = c.evaluate(np.array(u)[None])[0]
+        assert P.min() >= 0 and P[:8].mean() == pytest.approx(ep, abs=5e-3)  # (the path keeps u to 4 decimals)
 
 
 def test_report_on_bad_records_is_a_one_line_error(tmp_path):
