@@ -16,7 +16,7 @@ from ksbo_mav.errors import InputError
 from ksbo_mav.profiles import Profile, load_profile
 from ksbo_mav.scoring import Score, ScoreConfig, score, score_rollout
 from ksbo_sim.episode import (REASONS, EpisodeConfig, MonitorConfig, Rollout, fixed_initial_states,
-                              random_initial_states, simulate)
+                              random_initial_states, simulate, stress_initial_state)
 from ksbo_sim.monitor import Outcome
 from ksbo_sim.plants import Plant, plant as suite_plant
 
@@ -136,14 +136,23 @@ class SimObjective:
             return float(self.batch(np.asarray(x, dtype=float)[None])[0])
         return self.trial(x)
 
-    def trial(self, x: np.ndarray) -> Any:
-        """One episode as an :class:`ksbo_mav.opt.outcome.Evaluation`: P and complete / aborted / crashed."""
+    def trial(self, x: np.ndarray, init: np.ndarray | None = None) -> Any:
+        """One episode as an :class:`ksbo_mav.opt.outcome.Evaluation`: P and complete / aborted / crashed; from a
+        random initial velocity unless ``init`` (6,) is given."""
         from ksbo_mav.opt.outcome import Evaluation
 
         X = np.atleast_2d(np.asarray(x, dtype=float))
-        init = random_initial_states(1, self.rng, self.episode)
+        init = random_initial_states(1, self.rng, self.episode) if init is None else np.atleast_2d(init)
         sc, outcomes = self.scores(X, init, with_outcomes=True)
         return Evaluation(float(sc.P[0]), outcomes[0])
+
+    def stress(self, x: np.ndarray) -> Any:
+        """One episode of gains ``x`` (d,) from the hardest start (:func:`ksbo_sim.episode.stress_initial_state`),
+        returned like :meth:`__call__`: the optimisers' re-fly phase may ask for it (``refly_stress``)."""
+        init = stress_initial_state(self.episode)
+        if self.episode.monitor is None:
+            return float(self.scores(np.atleast_2d(np.asarray(x, dtype=float)), init[None]).P[0])
+        return self.trial(x, init)
 
     def scores(self, X: np.ndarray, init: np.ndarray, with_outcomes: bool = False) -> Any:
         """Score of each row of X (n, d) flown from the matching row of ``init`` (n, 6); with ``with_outcomes``

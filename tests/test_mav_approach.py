@@ -5,6 +5,7 @@ that fail only once the vehicle moves fail on the vehicle too (issue 13, item AE
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ import pytest
 from mav_tune_helpers import sim_and_endpoint
 
 from ksbo_mav.errors import InputError
-from ksbo_mav.mav.approach import ACCEL, CRUISE_S, Approach, approach_outside, start_velocity
+from ksbo_mav.mav.approach import ACCEL, CRUISE_S, Approach, approach_outside, start_velocity, stress_velocity
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.objective import MavlinkObjective
 from ksbo_mav.mav.vehicle import Vehicle
@@ -130,3 +131,33 @@ def test_campaign_refuses_a_box_its_moving_starts_leave_before_writing_anything(
         with pytest.raises(InputError, match="outside the abort box"):
             Campaign(cfg, ep, log=lambda s: None).run()
     assert not d.exists()
+
+
+def test_stress_velocity_is_against_the_path_at_nine_tenths_of_the_start_speed_and_zero_without_moving_starts() -> None:
+    np.testing.assert_allclose(stress_velocity("figure8-xz", 1.0), [-0.9, 0.0, 0.0])
+    np.testing.assert_allclose(stress_velocity("figure8-xz", 0.5), [-0.45, 0.0, 0.0])
+    assert not stress_velocity("figure8-xz", 0.0).any() and not stress_velocity("figure8-ne", 1.0).any()
+
+
+@pytest.mark.network
+@pytest.mark.timeout(240)
+def test_campaign_reflies_from_the_hardest_start_under_refly_stress(tmp_path) -> None:
+    """The re-fly phase of a campaign with refly_stress flies its re-flights from the stress start (journalled and
+    recorded as such); every other trial draws its random start."""
+    import json
+
+    from ksbo_mav.campaign import Campaign, CampaignConfig
+
+    d = tmp_path / "camp"
+    with sim_and_endpoint() as (sim, ep):
+        cfg = CampaignConfig(dir=str(d), budget=10, seed=0, prior="sim", confirm=0, end="hold",
+                             options={"refly_stress": True})
+        summary = Campaign(cfg, ep, log=lambda s: None).run()
+    journal = [json.loads(line) for line in (d / "journal.jsonl").read_text().splitlines()]
+    opt = [e for e in journal if e["kind"] == "opt"]
+    assert len(opt) == summary["n_trials"] == 10  # the baseline is one of the budget's 10
+    assert [e["stress"] for e in opt] == [False] * 9 + [True]  # one re-flight (a tenth of the budget)
+    recs = [json.loads(Path(e["record"]).read_text()) for e in opt]
+    assert recs[-1]["stress_start"] and recs[-1]["start_velocity_ned"] == pytest.approx([-0.9, 0.0, 0.0])
+    assert not any(r["stress_start"] for r in recs[:-1])
+    assert all(np.linalg.norm(r["start_velocity_ned"]) <= 1.0 for r in recs)

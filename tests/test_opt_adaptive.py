@@ -707,3 +707,46 @@ def test_a_model_that_overstates_never_earns_a_narrower_margin() -> None:
     # the quantile is above the configured β, and the last bad flights widen it further (window 5, cap 10)
     assert bo.beta == pytest.approx(min(10.0, max(5.0, np.quantile(s, 0.9), max(s[-5:]))))
     assert bo.beta > 5.0
+
+
+class _Stressed:
+    """bump(0.2) whose first candidate fails from the hardest start (``stress``): bistable gains that ordinary
+    flights cannot tell from the others."""
+
+    def __init__(self) -> None:
+        self.f, self.stress_calls = bump(0.2), []
+
+    def __call__(self, x: np.ndarray) -> float:
+        return self.f(x)
+
+    def stress(self, x: np.ndarray) -> Evaluation:
+        self.stress_calls.append(np.array(x, dtype=float))
+        ok = not np.array_equal(self.stress_calls[0], x)
+        return Evaluation(self.f(x), Outcome.COMPLETE) if ok else Evaluation(None, Outcome.ABORTED)
+
+
+def test_refly_stress_screens_candidates_from_the_hardest_start_then_reflies_those_that_passed() -> None:
+    kw = dict(budget=40, method="ksbo-adaptive", seed=0, refly_last=4, refly_top=2, orders=(1,), n_local=256,
+              y_max=1.0)
+    fun = _Stressed()
+    r = ksbo_mav.optimize(fun, np.array([0.5, 0.4]), BOX2, refly_stress=True, **kw)
+    kinds = [p["kind"] for p in r.info["proposals"]]
+    n_stress = kinds.count("stress")
+    assert n_stress == len(fun.stress_calls) >= 1 and n_stress + kinds.count("refly") == 4
+    assert kinds[-4:].count("stress") == n_stress  # all in the re-fly phase, the last 4 evaluations
+    assert len({tuple(c) for c in fun.stress_calls}) == n_stress  # each candidate is screened once
+    assert all(any(np.array_equal(c, x) for x in r.X[:-4]) for c in fun.stress_calls)  # flown gains
+    failed, passed = fun.stress_calls[0], fun.stress_calls[1:]
+    assert passed  # the first candidate failed, so the next was screened
+    assert any(np.array_equal(r.x, c) for c in passed) and not np.array_equal(r.x, failed)
+    refl = [x for x, k in zip(r.X[-4:], kinds[-4:]) if k == "refly"]  # ordinary re-flights: survivors only
+    assert refl and all(any(np.array_equal(x, c) for c in passed) for x in refl)
+    plain = _Stressed()
+    ksbo_mav.optimize(plain, np.array([0.5, 0.4]), BOX2, refly_stress=False, **kw)
+    assert plain.stress_calls == []  # off: the re-flights are ordinary flights
+    default = _Stressed()
+    ksbo_mav.optimize(default, np.array([0.5, 0.4]), BOX2, **kw)
+    assert len(default.stress_calls) == n_stress  # ksbo-adaptive screens by default
+    # an objective without `stress` re-flies as usual under refly_stress
+    r2 = ksbo_mav.optimize(bump(0.2), np.array([0.5, 0.4]), BOX2, **kw)
+    assert [p["kind"] for p in r2.info["proposals"]].count("refly") == 4

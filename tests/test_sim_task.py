@@ -7,6 +7,7 @@ from ksbo_mav.objective import SimObjective, Trajectory
 from ksbo_mav.profiles import load_profile
 from ksbo_mav.scoring import score_rollout
 from ksbo_sim import fixed_initial_states, random_initial_states, simulate
+from ksbo_sim.episode import EpisodeConfig, stress_initial_state
 from ksbo_sim.scalar import simulate_one
 
 PROFILE = load_profile("sim-planar")
@@ -118,3 +119,25 @@ def test_objective_rejects_bad_gains():
     for bad in ([1.0] * 8, [np.nan] * 9, [-1.0] + [0.1] * 8):
         with pytest.raises(InputError):
             obj(np.array(bad))
+
+
+#: Gains on the fragile top of the x-P ridge (issue 13, item AH): they complete from most starts and fail from those
+#: against the path in x (66 of 400 random starts, every one between 101 and 180 degrees from +x).
+FRAGILE = np.array([0.6298, 0.000687, 0.1661, 0.9042, 0.0331, 1.718, 28373.0, 1051.8, 7069.7])
+
+
+def test_stress_start_is_against_the_path_and_fails_fragile_gains():
+    cfg = EpisodeConfig()
+    s = stress_initial_state(cfg)
+    assert s.shape == (6,)
+    assert np.allclose(s[[0, 2]], cfg.figure8.position(0.0)) and s[3] == 0 and s[4] == s[5] == 0
+    assert s[1] == pytest.approx(-0.9) and np.sign(cfg.figure8.velocity(0.0)[0]) == 1.0  # against the path's +x
+    assert stress_initial_state(cfg, v_max=0.5)[1] == pytest.approx(-0.45)
+    obj = SimObjective()  # strict: plain P
+    along = s.copy()
+    along[1] = 1.0
+    assert obj.scores(FRAGILE[None], along[None]).P[0] > 0.8  # with the path: a good flight
+    assert obj.stress(FRAGILE) < 0  # against it: P < 0
+    monitored = SimObjective(monitor=True).stress(FRAGILE)
+    assert monitored.outcome.value != "complete"
+    assert SimObjective(monitor=True).stress(load_profile("sim-planar").default).outcome.value == "complete"

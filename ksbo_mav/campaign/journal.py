@@ -30,19 +30,21 @@ class JournalEntry:
     record: str
     restored: bool
     rms: float | None = None  # 3-D missions: lap-2 RMS tracking error (m)
+    stress: bool = False  # flown from the hardest start (the optimiser's refly_stress re-flights)
 
     @classmethod
     def of(cls, kind: str, f: Flight) -> "JournalEntry":
         return cls(kind=kind, trial=int(f.meta["trial"]), x=tuple(float(v) for v in f.gains), P=float(f.P),
                    outcome=TrialOutcome(f.outcome), record=str(f.meta["record"]), restored=bool(f.meta["restored"]),
-                   rms=f.score.get("rms_lap2_m"))
+                   rms=f.score.get("rms_lap2_m"), stress=bool(f.meta.get("stress_start", False)))
 
     @classmethod
     def parse(cls, doc: Any, where: str) -> "JournalEntry":
         try:
             e = cls(kind=str(doc["kind"]), trial=int(doc["trial"]), x=tuple(float(v) for v in doc["x"]),
                     P=float(doc["P"]), outcome=TrialOutcome(doc["outcome"]), record=str(doc["record"]),
-                    restored=bool(doc["restored"]), rms=None if doc.get("rms") is None else float(doc["rms"]))
+                    restored=bool(doc["restored"]), rms=None if doc.get("rms") is None else float(doc["rms"]),
+                    stress=bool(doc.get("stress", False)))
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"{where}: not a journal entry ({exc})") from None
         if e.kind not in KINDS:

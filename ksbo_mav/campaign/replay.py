@@ -24,26 +24,37 @@ def evaluation(e: JournalEntry) -> Evaluation:
 
 
 class JournalReplay:
-    """``fun`` for :func:`ksbo_mav.optimize`: the first ``len(done)`` calls from ``done``, the rest from ``fly``."""
+    """``fun`` for :func:`ksbo_mav.optimize`: the first ``len(done)`` calls from ``done``, the rest from ``fly``.
+
+    With ``fly_stress`` (missions with moving starts) it also has ``stress(x)``, a flight from the stress start for
+    the optimiser's ``refly_stress`` screen; a journalled flight replays only the same kind of call. Without it
+    there is no ``stress`` and the optimiser re-flies as usual."""
 
     def __init__(self, done: list[JournalEntry], fly: Callable[[np.ndarray], Evaluation],
-                 log: Callable[[str], None] = lambda s: None) -> None:
+                 log: Callable[[str], None] = lambda s: None,
+                 fly_stress: Callable[[np.ndarray], Evaluation] | None = None) -> None:
         self.done, self.fly, self.log = done, fly, log
+        self.fly_stress = fly_stress
         self.calls = 0
         self.replayed = 0
         self.diverged_at: int | None = None
+        if fly_stress is not None:
+            self.stress = lambda x: self._answer(x, stress=True)
 
     def __call__(self, x: np.ndarray) -> Evaluation:
+        return self._answer(x, stress=False)
+
+    def _answer(self, x: np.ndarray, stress: bool) -> Evaluation:
         i, self.calls = self.calls, self.calls + 1
         if self.diverged_at is None and i < len(self.done):
             e = self.done[i]
-            if np.allclose(x, e.x, rtol=1e-9, atol=1e-12):
+            if np.allclose(x, e.x, rtol=1e-9, atol=1e-12) and e.stress == stress:
                 self.replayed += 1
                 return evaluation(e)
             self.diverged_at = i
             self.log(f"resume: the optimiser's proposal {i} differs from the journal (code or settings changed?): "
                      f"{len(self.done) - i} journalled trial(s) stay on record unused; flying new proposals")
-        return self.fly(x)
+        return self.fly_stress(x) if stress and self.fly_stress is not None else self.fly(x)
 
     @property
     def unused(self) -> list[JournalEntry]:

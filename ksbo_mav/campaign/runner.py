@@ -127,12 +127,12 @@ class Campaign:
                               [e.P for e in self.journal.of("prior")], lambda x: self._fly(x, "prior").P, self.log)
 
     # --- flying ----------------------------------------------------------------------------------------------
-    def _fly(self, x: np.ndarray, kind: str) -> Flight:
+    def _fly(self, x: np.ndarray, kind: str, stress: bool = False) -> Flight:
         """One trial, journalled; flown again (up to :data:`RETRIES` times) when this computer or the link
         spoiled it. :class:`TrialStopped` for a trial that must end the campaign."""
         for attempt in range(RETRIES + 1):
             try:
-                return self._fly_once(x, kind)
+                return self._fly_once(x, kind, stress)
             except TrialStopped as exc:
                 outcome = exc.flight.outcome
                 if not outcome.retry or attempt == RETRIES:
@@ -141,11 +141,11 @@ class Campaign:
                          "flying it again")
         raise AssertionError("unreachable")
 
-    def _fly_once(self, x: np.ndarray, kind: str) -> Flight:
+    def _fly_once(self, x: np.ndarray, kind: str, stress: bool = False) -> Flight:
         assert self.objective is not None and self.journal is not None
         journal = self.journal
         try:
-            f = self.objective.fly(x, label=kind)
+            f = self.objective.fly(x, label=kind, stress=stress)
         except (TrialStopped, KeyboardInterrupt) as exc:
             f = exc.flight if isinstance(exc, TrialStopped) else self.objective.last_flight
             if f is not None and f.meta.get("trial") == self.objective.index - 1 and not journal.has_trial(
@@ -157,9 +157,10 @@ class Campaign:
         self.progress(TrialEvent.of(kind, f, journal))
         return f
 
-    def _evaluate(self, x: np.ndarray) -> Evaluation:
-        """An optimiser evaluation: a flown trial, with the monitor's aborts and crashes as censored outcomes."""
-        f = self._fly(x, "opt")
+    def _evaluate(self, x: np.ndarray, stress: bool = False) -> Evaluation:
+        """An optimiser evaluation: a flown trial, with the monitor's aborts and crashes as censored outcomes
+        (``stress``: from the hardest start, for the re-fly phase's ``refly_stress``)."""
+        f = self._fly(x, "opt", stress)
         return Evaluation(f.P, f.outcome.evaluation)
 
     def _baseline(self, x0: np.ndarray) -> None:
@@ -183,7 +184,10 @@ class Campaign:
         from ksbo_mav import optimize
 
         done = self.journal.of("opt")
-        replay = JournalReplay(done, self._evaluate, self.log)
+        m = self.vehicle.mission
+        moving = m.kind == "figure8-xz" and m.start_speed > 0  # a stress start exists only with moving starts
+        replay = JournalReplay(done, self._evaluate, self.log,
+                               (lambda x: self._evaluate(x, stress=True)) if moving else None)
         if self.resume and len(done) > 1:
             self.log(f"resume: replaying {len(done)} journalled trial(s) through the optimiser (nothing re-flown)")
         try:

@@ -11,7 +11,8 @@ the trial number, so a resumed campaign flies the same starts) and flies an *app
 before the figure-8: its setpoints start from rest at ``start - D u/|u|``, accelerate at :data:`ACCEL` m/s^2 to
 ``u``, cruise :data:`CRUISE_S` s and reach the start at ``u`` just as the figure-8's first setpoint goes out (the
 vehicle follows with its gains' tracking lag). The approach is monitored like the figure-8 (a trip there is the
-trial's abort) and not scored.
+trial's abort) and not scored. Re-flights of the optimiser's ``refly_stress`` come in at :func:`stress_velocity`,
+the start where bistable gains fail first.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ksbo_mav.errors import InputError
-from ksbo_sim.episode import random_initial_states
+from ksbo_sim.episode import random_initial_states, stress_initial_state
 from ksbo_sim.monitor import MonitorLimits
 
 if TYPE_CHECKING:
@@ -43,6 +44,15 @@ def start_velocity(kind: str, v_max: float, seed: int, trial: int) -> np.ndarray
         return np.zeros(3)
     s = random_initial_states(1, np.random.default_rng([seed, trial]), v_max=v_max)[0]
     return np.array([s[1], 0.0, -s[3]])  # planar (vx, vz up) -> NED (north, east 0, down)
+
+
+def stress_velocity(kind: str, v_max: float) -> np.ndarray:
+    """(3,) NED velocity of the stress start (:func:`ksbo_sim.episode.stress_initial_state`: 0.9 × ``v_max``
+    against the path in x), flown by the re-fly phase with ``refly_stress``; zero where :func:`start_velocity` is."""
+    if v_max <= 0 or kind != "figure8-xz":
+        return np.zeros(3)
+    s = stress_initial_state(v_max=v_max)
+    return np.array([s[1], 0.0, -s[3]])
 
 
 def approach_seconds(speed: float) -> float:

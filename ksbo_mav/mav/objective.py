@@ -27,7 +27,7 @@ import numpy as np
 
 from ksbo_mav.errors import KsboError, VehicleError
 from ksbo_mav.jsonio import dumps
-from ksbo_mav.mav.approach import Approach, check_moving_start, start_velocity
+from ksbo_mav.mav.approach import Approach, check_moving_start, start_velocity, stress_velocity
 from ksbo_mav.mav.monitor import Monitor, limits_from_profile
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.params import VerifyError
@@ -92,13 +92,17 @@ class MavlinkObjective:
         return self.fly(x).P
 
     # --- one trial ---------------------------------------------------------------------------------------
-    def fly(self, gains: np.ndarray, label: str = "") -> Flight:
-        """Fly one trial. :class:`PreflightError` (nothing flown, nothing recorded) when the vehicle cannot be
-        brought to the figure-8 start; :class:`TrialStopped` after a trial that must end the campaign."""
+    def fly(self, gains: np.ndarray, label: str = "", stress: bool = False) -> Flight:
+        """Fly one trial (with ``stress`` from the hardest start, :func:`~ksbo_mav.mav.approach.stress_velocity`,
+        instead of the trial's random one). :class:`PreflightError` (nothing flown, nothing recorded) when the
+        vehicle cannot be brought to the figure-8 start; :class:`TrialStopped` after a trial that must end the
+        campaign."""
         v = self.vehicle
         x = v.check_trial_gains(gains, self.baseline)
         m = self.mission
-        approach = Approach(m.start_ned(), start_velocity(m.kind, m.start_speed, self.start_seed, self.index), m.dt)
+        u = (stress_velocity(m.kind, m.start_speed) if stress
+             else start_velocity(m.kind, m.start_speed, self.start_seed, self.index))
+        approach = Approach(m.start_ned(), u, m.dt)
         try:
             v.ensure_airborne(self.log, at=approach.begin)
         except PreflightError:
@@ -139,7 +143,8 @@ class MavlinkObjective:
         link_stats = {"lost_packets": rec.lost, "rate_reasserts": v.telemetry.reasserts - reasserts0,
                       **_lag_stats(self._lag, self.mission.window[0])}
         flight = self._record(i, stem, x, rec, outcome, message, restored, started, label,
-                              {"link": link_stats, "start_velocity_ned": approach.velocity.tolist()})
+                              {"link": link_stats, "start_velocity_ned": approach.velocity.tolist(),
+                               "stress_start": stress})
         self.last_flight = flight
         if stop is not None:
             raise stop

@@ -117,6 +117,11 @@ class AdaptiveConfig:
             completed points (by the recommendation's criterion, and the best single flight); the recommendation
             is then the best mean over each point's flights (once any trial failed: the best expected score under
             the failure model, and a candidate that failed is not re-flown; opt.recommend).
+        refly_stress: where the objective has a stress start (``fun.stress(x)``, e.g.
+            :meth:`ksbo_mav.objective.SimObjective.stress`, a planar MAVLink campaign's moving starts), the re-fly
+            phase first flies each candidate once from it, and only candidates that pass are re-flown and can be
+            recommended (opt.stress): gains that fail from part of the starts fail there first. An objective
+            without ``stress`` (the copters) re-flies as usual. On in ``ksbo-adaptive`` (opt.options).
         reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
             by marginal likelihood (Algorithm 1 stays the first selection); 0 = never (the paper's once-only
             selection). ``ksbo`` and ``ksbo-adaptive`` default to 10 (opt.options).
@@ -156,6 +161,7 @@ class AdaptiveConfig:
     crash_tol: float = 0.1
     refly_last: int = 0
     refly_top: int = 3
+    refly_stress: bool = False
     reselect_every: int = 0
     exclusion_growth: float = 1.0
     exclusion_max: float = 0.2

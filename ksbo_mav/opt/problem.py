@@ -90,8 +90,14 @@ class Problem:
         """
         return self.evaluate_full(u)[1]
 
-    def evaluate_full(self, u: np.ndarray) -> tuple[Evaluation, float]:
-        """Call ``fun`` once at ``u`` (d,); returns the :class:`Evaluation` and the recorded value (see above)."""
+    @property
+    def can_stress(self) -> bool:
+        """Whether ``fun`` offers a flight from its hardest start (``fun.stress(x)``, same return as ``fun``)."""
+        return callable(getattr(self.fun, "stress", None))
+
+    def evaluate_full(self, u: np.ndarray, stress: bool = False) -> tuple[Evaluation, float]:
+        """Call ``fun`` once at ``u`` (d,) (``fun.stress`` with ``stress`` where :attr:`can_stress`); returns the
+        :class:`Evaluation` and the recorded value (see above)."""
         if self.budget - len(self.y) <= 0:
             raise BudgetExhausted(f"budget of {self.budget} evaluations already used")
         start = time.perf_counter()
@@ -100,7 +106,7 @@ class Problem:
         x = self.to_physical(u)
         i = len(self.y)
         try:
-            raw = self.fun(x.copy())
+            raw = self.fun.stress(x.copy()) if stress and self.can_stress else self.fun(x.copy())
         except Exception as exc:
             exc.add_note(f"raised by fun at evaluation {i} (x = {np.array2string(x, precision=4)})")
             raise

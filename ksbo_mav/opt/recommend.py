@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ksbo_mav.opt.region import excluded, in_grown_ball
+from ksbo_mav.opt.stress import screened
 
 if TYPE_CHECKING:
     from ksbo_mav.opt.safe_bo import SafeBO
@@ -76,6 +77,7 @@ def refly_count(bo: "SafeBO") -> int:
 def refly_candidates(bo: "SafeBO") -> np.ndarray:
     """(k,) data indices of the ``refly_top`` best distinct completed safe points by the recommendation's
     criterion (the smoothed posterior mean or LCB)."""
+    top = bo.adaptive.refly_top
     mu, lcb = bo.smoothed()
     crit = lcb if bo.config.recommend == "lcb" else mu
     ok = bo.complete & (bo.y >= bo.p_min)
@@ -85,14 +87,14 @@ def refly_candidates(bo: "SafeBO") -> np.ndarray:
     # The best single flight competes too: the smoothing pulls a lone point at the edge of the data towards the
     # prior mean (p_min), so on a smooth, low-noise plant the best gains would otherwise never be re-flown.
     fine = ok & unlikely_to_abort(bo)
-    if fine.any() and bo.adaptive.refly_top > 1:
+    if fine.any() and top > 1:
         best = int(np.argmax(np.where(fine, bo.y, -np.inf)))
-        order = order[: bo.adaptive.refly_top - 1] + [best] + order[bo.adaptive.refly_top - 1 :]
+        order = order[: top - 1] + [best] + order[top - 1 :]
     chosen: list[int] = []
     for i in order:
         if not any(np.array_equal(bo.X[i], bo.X[j]) for j in chosen):
             chosen.append(i)
-        if len(chosen) == bo.adaptive.refly_top:
+        if len(chosen) == top:
             break
     return np.asarray(chosen, dtype=int)
 
@@ -163,7 +165,9 @@ def clear_choice(bo: "SafeBO") -> int | None:
 
 
 def final_choice(bo: "SafeBO") -> tuple[int, float, float]:
-    """The recommendation: among the re-flown candidates if a re-fly phase ran, else ``bo.recommend()``.
+    """The recommendation: among the re-flown candidates if a re-fly phase ran (after a stress screen,
+    ``refly_stress``, among those that passed it, if any did: :func:`ksbo_mav.opt.stress.screened`), else
+    ``bo.recommend()``.
 
     Once any trial failed, the re-flown candidates, the model's choice and the best point clear of failures
     (:func:`clear_choice`) compete by :func:`expected_value`: a candidate that failed when re-flown loses to a
@@ -172,6 +176,11 @@ def final_choice(bo: "SafeBO") -> tuple[int, float, float]:
     failed = _refresh_failures(bo)
     i, mu, lcb = bo.recommend()
     cands = bo.refly_set
+    passed = screened(bo)
+    if passed:  # refly_stress: only candidates that passed their stress flights (opt.stress)
+        j = refly_choice(bo, np.asarray(passed))
+        m, l_ = bo.smoothed()
+        return j, float(m[j]), float(l_[j])
     if cands is None or len(cands) == 0:
         return i, mu, lcb
     pool = np.asarray(cands, dtype=int)

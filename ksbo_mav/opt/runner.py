@@ -7,7 +7,9 @@
 * Re-fly phase (``refly_last`` > 0): the last evaluations re-fly the ``refly_top`` best completed points (by the
   recommendation's criterion) in turn; the recommendation is then the candidate with the best mean over all its
   flights (once any trial failed: by expected score under the failure model, opt.recommend). A candidate that
-  fails is not re-flown again. Bistable gains that flew well once rarely survive this.
+  fails is not re-flown again. Bistable gains that flew well once rarely survive this. With ``refly_stress`` (and
+  an objective with ``fun.stress``) each candidate first flies once from the hardest start, and only those that
+  pass are re-flown and can be recommended (opt.stress; proposals of kind "stress").
 """
 
 from __future__ import annotations
@@ -15,8 +17,10 @@ from __future__ import annotations
 from typing import Callable
 
 from ksbo_mav.opt.problem import Problem
+from ksbo_mav.opt.outcome import Outcome
 from ksbo_mav.opt.recommend import next_refly, refly_candidates, refly_count
 from ksbo_mav.opt.safe_bo import Proposal, SafeBO
+from ksbo_mav.opt.stress import next_flight, record_stress, screen_order
 
 
 def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
@@ -31,6 +35,7 @@ def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
     """
     log: list[dict] = []
     n_refly = refly_count(bo)
+    stress = bo.adaptive.refly_stress and problem.can_stress
     cap = bo.adaptive.max_aborts
     while problem.remaining > 0 and (max_iters is None or bo.iteration < max_iters):
         if cap is not None and bo.aborts >= cap:
@@ -39,13 +44,15 @@ def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
         bo.remaining = problem.remaining - n_refly
         if problem.remaining <= n_refly:
             if bo.refly_set is None:
-                bo.refly_set = refly_candidates(bo)
+                bo.refly_set = screen_order(bo, refly_candidates(bo)) if stress else refly_candidates(bo)
             k = n_refly - problem.remaining
-            i = next_refly(bo, k)
-            p = Proposal(bo.X[i].copy(), "refly", float("nan"), float("nan"), float("nan"))
+            i, hard = next_flight(bo, k) if stress else (next_refly(bo, k), False)
+            p = Proposal(bo.X[i].copy(), "stress" if hard else "refly", float("nan"), float("nan"), float("nan"))
         else:
-            p = bo.propose()
-        ev, y = problem.evaluate_full(p.x)
+            p, hard = bo.propose(), False
+        ev, y = problem.evaluate_full(p.x, stress=hard)
+        if hard:
+            record_stress(bo, i, bo.y.size, ev.outcome is Outcome.COMPLETE and y >= bo.p_min)
         bo.observe(p.x, y, ev.outcome)
         log.append({"kind": p.kind, "mu": p.mu, "sd": p.sd, "lcb": p.lcb, "y": y, "outcome": ev.outcome.value})
         if after is not None:
