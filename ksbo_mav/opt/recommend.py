@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ksbo_mav.opt.region import excluded, in_grown_ball
-from ksbo_mav.opt.stress import screened
+from ksbo_mav.opt.stress import eligible
 
 if TYPE_CHECKING:
     from ksbo_mav.opt.safe_bo import SafeBO
@@ -166,7 +166,7 @@ def clear_choice(bo: "SafeBO") -> int | None:
 
 def final_choice(bo: "SafeBO") -> tuple[int, float, float]:
     """The recommendation: among the re-flown candidates if a re-fly phase ran (after a stress screen,
-    ``refly_stress``, among those that passed it, if any did: :func:`ksbo_mav.opt.stress.screened`), else
+    ``refly_stress``, among those it did not rule out, if any passed: :func:`ksbo_mav.opt.stress.eligible`), else
     ``bo.recommend()``.
 
     Once any trial failed, the re-flown candidates, the model's choice and the best point clear of failures
@@ -176,8 +176,8 @@ def final_choice(bo: "SafeBO") -> tuple[int, float, float]:
     failed = _refresh_failures(bo)
     i, mu, lcb = bo.recommend()
     cands = bo.refly_set
-    passed = screened(bo)
-    if passed:  # refly_stress: only candidates that passed their stress flights (opt.stress)
+    passed = eligible(bo)
+    if passed:  # refly_stress: only candidates the stress flights did not rule out (opt.stress)
         j = refly_choice(bo, np.asarray(passed))
         m, l_ = bo.smoothed()
         return j, float(m[j]), float(l_[j])

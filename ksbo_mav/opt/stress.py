@@ -11,8 +11,9 @@ random starts (within 0.001 on the nominal tuning seeds).
   clear of the failures' grown exclusion balls first.
 * :func:`next_flight` — the phase's next flight: the first ``refly_top`` flights screen the candidates in that
   order, one stress flight each; then the ones that passed are re-flown in turn from ordinary random starts.
-* :func:`screened` — the candidates whose stress flights all passed: the final choice is made among them as
-  without the screen (:func:`ksbo_mav.opt.recommend.final_choice`); if none passed, among all as without it.
+* :func:`eligible` — the candidates the screen has not ruled out (it passed, or there was no flight left to screen
+  it): the final choice is made among them as without the screen (:func:`ksbo_mav.opt.recommend.final_choice`);
+  if none passed, among all as without it.
 """
 
 from __future__ import annotations
@@ -65,8 +66,11 @@ def record_stress(bo: "SafeBO", i: int, j: int, passed: bool) -> None:
     bo.stress_rows.append(j)
 
 
-def screened(bo: "SafeBO") -> list[int]:
-    """Data indices of the candidates whose stress flights all passed (screening order)."""
-    if bo.refly_set is None:
+def eligible(bo: "SafeBO") -> list[int]:
+    """Data indices of the candidates the screen has not ruled out (screening order): every candidate whose stress
+    flights all passed, and those the phase had no flight left to screen (a 20-trial campaign re-flies 2 of its 3
+    candidates) unless a flight at exactly their gains failed; empty when no stress flight passed."""
+    if bo.refly_set is None or not any(bo.stress_passed.values()):
         return []
-    return [int(c) for c in bo.refly_set if bo.stress_passed.get(int(c))]
+    return [int(c) for c in bo.refly_set
+            if bo.stress_passed.get(int(c), int(c) not in bo.stress_passed and not _failed_at(bo, int(c)))]
