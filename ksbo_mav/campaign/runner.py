@@ -27,7 +27,7 @@ from ksbo_mav.campaign.replay import JournalReplay
 from ksbo_mav.campaign.resume import check_unchanged
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
 from ksbo_mav.errors import InputError, KsboError, UnsafeStartError, VehicleError
-from ksbo_mav.mav.approach import check_moving_start
+from ksbo_mav.mav.approach import check_moving_start, moving_starts
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.monitor import limits_from_profile
@@ -184,10 +184,9 @@ class Campaign:
         from ksbo_mav import optimize
 
         done = self.journal.of("opt")
-        m = self.vehicle.mission
-        moving = m.kind == "figure8-xz" and m.start_speed > 0  # a stress start exists only with moving starts
-        replay = JournalReplay(done, self._evaluate, self.log,
-                               (lambda x: self._evaluate(x, stress=True)) if moving else None)
+        m = self.vehicle.mission  # a stress start exists only with moving starts
+        replay = JournalReplay(done, self._evaluate, self.log, (lambda x: self._evaluate(x, stress=True))
+                               if moving_starts(m.kind, m.start_speed) else None)
         if self.resume and len(done) > 1:
             self.log(f"resume: replaying {len(done)} journalled trial(s) through the optimiser (nothing re-flown)")
         try:

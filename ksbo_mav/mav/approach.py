@@ -37,22 +37,28 @@ ACCEL = 2.0
 CRUISE_S = 0.3
 
 
+def moving_starts(kind: str, v_max: float) -> bool:
+    """Whether a mission's trials start moving: planar figure-8 missions with a start speed cap above 0."""
+    return v_max > 0 and kind == "figure8-xz"
+
+
+def _ned(s: np.ndarray) -> np.ndarray:
+    """(3,) NED velocity of a planar initial state (6,) (vx, vz up) -> (north, east 0, down)."""
+    return np.array([s[1], 0.0, -s[3]])
+
+
 def start_velocity(kind: str, v_max: float, seed: int, trial: int) -> np.ndarray:
     """(3,) NED velocity at the figure-8 start of trial ``trial``: the task's random start (the same draw as
-    :func:`ksbo_sim.episode.random_initial_states`), zero when ``v_max`` is 0 or the mission is not planar."""
-    if v_max <= 0 or kind != "figure8-xz":
+    :func:`ksbo_sim.episode.random_initial_states`), zero without :func:`moving_starts`."""
+    if not moving_starts(kind, v_max):
         return np.zeros(3)
-    s = random_initial_states(1, np.random.default_rng([seed, trial]), v_max=v_max)[0]
-    return np.array([s[1], 0.0, -s[3]])  # planar (vx, vz up) -> NED (north, east 0, down)
+    return _ned(random_initial_states(1, np.random.default_rng([seed, trial]), v_max=v_max)[0])
 
 
 def stress_velocity(kind: str, v_max: float) -> np.ndarray:
     """(3,) NED velocity of the stress start (:func:`ksbo_sim.episode.stress_initial_state`: 0.9 × ``v_max``
-    against the path in x), flown by the re-fly phase with ``refly_stress``; zero where :func:`start_velocity` is."""
-    if v_max <= 0 or kind != "figure8-xz":
-        return np.zeros(3)
-    s = stress_initial_state(v_max=v_max)
-    return np.array([s[1], 0.0, -s[3]])
+    against the path in x), flown by the re-fly phase with ``refly_stress``; zero without :func:`moving_starts`."""
+    return _ned(stress_initial_state(v_max=v_max)) if moving_starts(kind, v_max) else np.zeros(3)
 
 
 def approach_seconds(speed: float) -> float:

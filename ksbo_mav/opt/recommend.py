@@ -77,7 +77,6 @@ def refly_count(bo: "SafeBO") -> int:
 def refly_candidates(bo: "SafeBO") -> np.ndarray:
     """(k,) data indices of the ``refly_top`` best distinct completed safe points by the recommendation's
     criterion (the smoothed posterior mean or LCB)."""
-    top = bo.adaptive.refly_top
     mu, lcb = bo.smoothed()
     crit = lcb if bo.config.recommend == "lcb" else mu
     ok = bo.complete & (bo.y >= bo.p_min)
@@ -87,14 +86,14 @@ def refly_candidates(bo: "SafeBO") -> np.ndarray:
     # The best single flight competes too: the smoothing pulls a lone point at the edge of the data towards the
     # prior mean (p_min), so on a smooth, low-noise plant the best gains would otherwise never be re-flown.
     fine = ok & unlikely_to_abort(bo)
-    if fine.any() and top > 1:
+    if fine.any() and bo.adaptive.refly_top > 1:
         best = int(np.argmax(np.where(fine, bo.y, -np.inf)))
-        order = order[: top - 1] + [best] + order[top - 1 :]
+        order = order[: bo.adaptive.refly_top - 1] + [best] + order[bo.adaptive.refly_top - 1 :]
     chosen: list[int] = []
     for i in order:
         if not any(np.array_equal(bo.X[i], bo.X[j]) for j in chosen):
             chosen.append(i)
-        if len(chosen) == top:
+        if len(chosen) == bo.adaptive.refly_top:
             break
     return np.asarray(chosen, dtype=int)
 
@@ -174,13 +173,13 @@ def final_choice(bo: "SafeBO") -> tuple[int, float, float]:
     slightly worse point nobody failed near.
     """
     failed = _refresh_failures(bo)
-    i, mu, lcb = bo.recommend()
-    cands = bo.refly_set
     passed = eligible(bo)
     if passed:  # refly_stress: only candidates the stress flights did not rule out (opt.stress)
         j = refly_choice(bo, np.asarray(passed))
         m, l_ = bo.smoothed()
         return j, float(m[j]), float(l_[j])
+    i, mu, lcb = bo.recommend()
+    cands = bo.refly_set
     if cands is None or len(cands) == 0:
         return i, mu, lcb
     pool = np.asarray(cands, dtype=int)

@@ -52,7 +52,7 @@ def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
             p, hard = bo.propose(), False
         ev, y = problem.evaluate_full(p.x, stress=hard)
         if hard:
-            record_stress(bo, i, bo.y.size, ev.outcome is Outcome.COMPLETE and y >= bo.p_min)
+            record_stress(bo, i, ev.outcome is Outcome.COMPLETE and y >= bo.p_min)
         bo.observe(p.x, y, ev.outcome)
         log.append({"kind": p.kind, "mu": p.mu, "sd": p.sd, "lcb": p.lcb, "y": y, "outcome": ev.outcome.value})
         if after is not None:

@@ -79,7 +79,6 @@ class SafeBO:
     scale_history: list[list[float]] = field(default_factory=list, init=False)  # learnt (d,) lengthscales
     refly_set: np.ndarray | None = field(default=None, init=False)  # (k,) data indices re-flown (opt.runner)
     stress_passed: dict[int, bool] = field(default_factory=dict, init=False)  # refly_stress results (opt.stress)
-    stress_rows: list[int] = field(default_factory=list, init=False)  # data rows flown from the stress start
     scale_factor: float = field(default=1.0, init=False)  # learnt safety scale × this (shrinks on new failures)
     ml_scale: np.ndarray | None = field(default=None, init=False)  # (d,) last marginal-likelihood lengthscales
     fixed_scale: np.ndarray | None = field(default=None, init=False)  # (d,) configured scale, once it shrank

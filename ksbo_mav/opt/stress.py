@@ -49,7 +49,7 @@ def next_flight(bo: "SafeBO", k: int) -> tuple[int, bool]:
     cands = [int(c) for c in bo.refly_set]
     passed = [c for c in cands if bo.stress_passed.get(c)]
     fresh = [c for c in cands if c not in bo.stress_passed and not _failed_at(bo, c)]
-    if fresh and len(bo.stress_rows) < bo.adaptive.refly_top:
+    if fresh and len(bo.stress_passed) < bo.adaptive.refly_top:
         return fresh[0], True
     live = [c for c in passed if not _failed_at(bo, c)] or passed
     if not live:
@@ -59,11 +59,10 @@ def next_flight(bo: "SafeBO", k: int) -> tuple[int, bool]:
     return live[k % len(live)], False
 
 
-def record_stress(bo: "SafeBO", i: int, j: int, passed: bool) -> None:
-    """Note that candidate ``i`` flew from the stress start as data row ``j`` and whether it completed with
-    P ≥ p_min (a candidate passes only if every one of its stress flights did)."""
-    bo.stress_passed[i] = bo.stress_passed.get(i, True) and passed
-    bo.stress_rows.append(j)
+def record_stress(bo: "SafeBO", i: int, passed: bool) -> None:
+    """Note that candidate ``i`` (data index) flew its stress flight (each candidate flies one) and whether it
+    completed with P ≥ p_min."""
+    bo.stress_passed[i] = passed
 
 
 def eligible(bo: "SafeBO") -> list[int]:
@@ -72,5 +71,5 @@ def eligible(bo: "SafeBO") -> list[int]:
     candidates) unless a flight at exactly their gains failed; empty when no stress flight passed."""
     if bo.refly_set is None or not any(bo.stress_passed.values()):
         return []
-    return [int(c) for c in bo.refly_set
-            if bo.stress_passed.get(int(c), int(c) not in bo.stress_passed and not _failed_at(bo, int(c)))]
+    cands = [int(c) for c in bo.refly_set]
+    return [c for c in cands if (bo.stress_passed[c] if c in bo.stress_passed else not _failed_at(bo, c))]
