@@ -26,7 +26,8 @@ def _load(name: str):
 
 @pytest.mark.parametrize(("script", "flag"), [("bench_campaign.py", "--out"), ("bench_campaign_report.py", "--out"),
                                               ("bench_plants.py", "report"), ("diag_oracle_ray.py", "--plot"),
-                                              ("diag_monitor_backup.py", "--n")])
+                                              ("diag_monitor_backup.py", "--n"),
+                                              ("diag_gain_slices.py", "--plot")])
 def test_bench_scripts_start(script, flag):
     r = subprocess.run([sys.executable, str(SCRIPTS / script), "--help"], capture_output=True, text=True,
                        timeout=120, cwd=ROOT)
@@ -114,3 +115,12 @@ def test_monitor_backup_diag_same_flights_fewer_crashes():
     assert (c["before"] == 2).sum() >= 3 * max(1, (c["now"] == 2).sum())
     # the old monitor's completes that the new one stops are few (it trips earlier only when heading out fast)
     assert ((c["before"] == 0) & (c["now"] != 0)).sum() <= 0.05 * (c["before"] == 0).sum()
+
+
+def test_gain_slices_show_the_pitch_d_cliff_of_pitch_inertia_x05():
+    """diag_gain_slices (item AI): on pitch inertia ×0.5, lowering ATT_PIT_D alone from a0's 0.25 to 0.075 lifts
+    E[P] from the plateau (≈ 0.3) to ≈ 0.9 with no failing start, and at 0 every start fails."""
+    slices = _load("diag_gain_slices").slices
+    ep, fail = slices("iyy x0.5", [8], np.array([0.0, 0.075, 0.25]))[8]
+    assert ep[1] > 0.8 and ep[2] < 0.4 and fail[1] == 0 == fail[2]
+    assert fail[0] == 8 and ep[0] < 0

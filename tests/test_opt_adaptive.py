@@ -750,3 +750,36 @@ def test_refly_stress_screens_candidates_from_the_hardest_start_then_reflies_tho
     # an objective without `stress` re-flies as usual under refly_stress
     r2 = ksbo_mav.optimize(bump(0.2), np.array([0.5, 0.4]), BOX2, **kw)
     assert [p["kind"] for p in r2.info["proposals"]].count("refly") == 4
+
+
+def test_safety_scale_floor_holds_the_learnt_scale_up_until_a_failure_shrinks_it() -> None:
+    """``safety_scale_floor``: the learnt safety lengthscales start at the floor and never fall below it while no
+    trial failed (the data's extent cap and short ML-II scales included); a failure at new gains still shrinks them
+    (floor × ``failure_scale_shrink``). Without a floor the learnt scale starts at the lower bound 0.01."""
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    rng = np.random.default_rng(1)
+    X = 0.48 + 0.04 * rng.random((12, 2))  # a small extent: the cap alone would keep the scale below 0.08
+    y = 0.5 + 0.3 * np.sin(30 * X[:, 0]) * np.cos(2 * X[:, 1])
+
+    def state(floor: float) -> SafeBO:
+        model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
+        bo = SafeBO(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
+                    adaptive=AdaptiveConfig(censor_aborts=True, learn_safety_scale=True, failure_scale_shrink=0.7,
+                                            safety_scale_floor=floor))
+        bo.fit(X[:1], y[:1])
+        return bo
+
+    bo, ref = state(0.06), state(0.0)
+    assert np.all(np.asarray(bo.model.spec.lengthscale) == 0.06)
+    assert np.all(np.asarray(ref.model.spec.lengthscale) == 0.01)
+    for b in (bo, ref):
+        for x, v in zip(X[1:], y[1:]):
+            b.observe(x, v)
+    learnt = np.asarray(bo.model.spec.lengthscale, float)
+    assert np.all(learnt >= 0.06) and np.any(np.asarray(ref.model.spec.lengthscale) < 0.06)
+    np.testing.assert_allclose(learnt, np.maximum(bo.ml_scale, 0.06))
+    bo.observe(np.array([0.7, 0.7]), -1.0, Outcome.ABORTED)  # new gains
+    np.testing.assert_allclose(bo.model.spec.lengthscale, np.maximum(bo.ml_scale, 0.06) * 0.7)

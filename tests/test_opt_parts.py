@@ -7,7 +7,7 @@ import pytest
 
 from ksbo_mav.errors import InputError
 from ksbo_mav.opt.candidates import local_gaussian, refine, sobol
-from ksbo_mav.opt.linebo import line_grid, safe_interval
+from ksbo_mav.opt.lines import line_grid, safe_interval
 from ksbo_mav.opt.options import options_for
 
 
@@ -115,3 +115,35 @@ def test_safe_ucb_margin_keeps_only_points_that_clear_the_threshold_by_the_margi
     assert options_for("ksbo").ucb_margin == 0.0
     with pytest.raises(InputError, match="ucb_margin"):
         options_for("ksbo", {"ucb_margin": -0.1}).validate()
+
+
+def test_coordinate_lines_move_one_gain_at_a_time_through_the_incumbent_and_stay_certified() -> None:
+    """``line_every``: every k-th BO iteration the query lies on a coordinate line through the incumbent — only one
+    gain differs from it, the axes come in turn, and the point is certified (LCB ≥ p_min); other iterations keep
+    the usual rule. Off by default; a non-integer is refused."""
+    from ksbo_mav.opt import region
+    from ksbo_mav.opt.config import SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    rng = np.random.default_rng(3)
+    X = 0.45 + 0.1 * rng.random((15, 3))
+    y = 0.4 + 0.2 * X[:, 0] - 0.1 * X[:, 1]
+    model = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 3)
+    bo = SafeBO(model, SafeBOConfig(line_every=2, n_local=256, n_global=64), np.ones(3, bool),
+                np.random.default_rng(0), budget=100)
+    bo.fit(X, y)
+    axes, kinds = [], []
+    for it in range(6):
+        xb = region.incumbent(bo)
+        p = bo.propose()
+        kinds.append(p.kind)
+        if p.kind == "line":
+            moved = np.flatnonzero(np.abs(p.x - xb) > 1e-12)
+            assert moved.size == 1 and p.lcb >= bo.p_min
+            axes.append(int(moved[0]))
+        bo.observe(p.x, float(0.4 + 0.2 * p.x[0] - 0.1 * p.x[1]))
+    assert kinds[0] != "line" and kinds[2] == kinds[4] == "line" and axes == [0, 1]
+    assert options_for("ksbo").line_every == 0
+    with pytest.raises(InputError, match="line_every"):
+        options_for("ksbo", {"line_every": 1.5})

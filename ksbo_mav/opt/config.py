@@ -52,6 +52,9 @@ class SafeBOConfig:
         ucb_margin: the safe-UCB phase queries only points whose LCB clears ``p_min`` by this much (the objective's
             units) while any candidate does (else the plain safe set): the UCB's maximiser sits on the certified set's
             edge, where the GP knows least. 0 = off (the plain safe set).
+        line_every: every this many BO iterations before exploitation, query a coordinate line through the
+            incumbent instead (the gains in turn; opt.lines): the certified set then grows along every gain, not
+            only the steepest. 0 = off.
     """
 
     beta: float = 4.0
@@ -85,6 +88,7 @@ class SafeBOConfig:
     beta_window: int = 5
     beta_cap: float | None = 10.0
     ucb_margin: float = 0.0
+    line_every: int = 0
 
 
 @dataclass(frozen=True)
@@ -140,6 +144,9 @@ class AdaptiveConfig:
         safety_noise_max: > 0: the safety GP's noise std is learnt with its lengthscales, between the fixed value
             and ``safety_noise_max`` × its signal std (flight-to-flight scatter otherwise forces short scales);
             0 = fixed.
+        safety_scale_floor: the learnt safety lengthscales are raised to at least this (before the failure shrink;
+            the start too): a learnt scale may be longer than ``ksbo``'s fixed one where the data are flat, never
+            shorter until a trial fails. 0 = no floor.
     """
 
     censor_aborts: bool = False
@@ -169,6 +176,7 @@ class AdaptiveConfig:
     unsafe_scale_shrink: float = 1.0
     ard_acquisition: float = 0.0
     safety_noise_max: float = 0.0
+    safety_scale_floor: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -60,12 +60,14 @@ class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, Safe
             raise InputError("backup_beta must be positive (or None: certified queries only)")
         if not (self.exclusion_growth >= 1 and self.exclusion_max >= self.exclusion_radius):
             raise InputError("exclusion_growth must be at least 1 and exclusion_max at least exclusion_radius")
-        if not (self.ard_acquisition >= 0 and self.safety_noise_max >= 0):
-            raise InputError("ard_acquisition and safety_noise_max must be non-negative (0 = off)")
+        if not (self.ard_acquisition >= 0 and self.safety_noise_max >= 0 and self.safety_scale_floor >= 0):
+            raise InputError("ard_acquisition, safety_noise_max and safety_scale_floor must be non-negative (0 = off)")
         if not (0 < self.failure_scale_shrink <= 1 and 0 < self.unsafe_scale_shrink <= 1):
             raise InputError("failure_scale_shrink and unsafe_scale_shrink must be in (0, 1]")
         if not self.ucb_margin >= 0:
             raise InputError("ucb_margin must be non-negative (0 = off)")
+        if isinstance(self.line_every, bool) or not (int(self.line_every) == self.line_every >= 0):
+            raise InputError("line_every must be a non-negative integer (0 = off)")
         if not (0 < self.tr_min <= self.tr_init <= self.tr_max):
             raise InputError("trust region sizes must satisfy 0 < tr_min <= tr_init <= tr_max")
 
@@ -132,6 +134,8 @@ ADAPTIVE: dict[str, Any] = {
     # and from 200 random starts 70 -> 1 of 6000; aborted trials 15 -> 28 (the stress flights that fail), crashes 1.
     # Objectives without a stress start (the copters) re-fly as before.
     "refly_stress": True,
+    # Item AJ: a floor under the learnt scale (safety_scale_floor 0.06 / 0.03) on tuning seeds 100-129: median
+    # 0.893 -> 0.907 / 0.886, but aborted trials 28 -> 176 / 139: an option, 0 here.
 }
 
 #: Defaults that differ per method (applied before the user's overrides).
@@ -163,6 +167,9 @@ METHOD_DEFAULTS: dict[str, dict[str, Any]] = {
     # (strict mode has no aborts: unchanged). Nominal tuning seeds 100-129 under the monitor (median / mean E[P] on
     # the 8 fixed starts, aborts, most in one run): 0.903 / 0.835, 56, 12 -> 0.902 / 0.819, 43, 5 (8 wins, 9 losses,
     # Wilcoxon p 0.65); 0 crashes either way.
+    # Item AI: coordinate lines through the incumbent (line_every 4 / 10) crossed the pitch-D cliff of pitch inertia
+    # x0.5 in 1 of 4 seeds, as ksbo does, and lost on the nominal tuning seeds 100-111 (median 0.908 -> 0.885 / 0.892,
+    # 1 win, 10 / 9 losses): an option.
     "ksbo": {"max_order": 4, "beta": 5.0, "reselect_every": 10, "safety_lengthscale": 0.06, "unsafe_scale_shrink": 0.7,
              "failure_scale_shrink": 0.7},
     # Issue 13: ksbo with the learned safety scale, trust region, abort budget, re-flown recommendation and

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ksbo_mav.opt.acquisition import BoundaryExpansion
-from ksbo_mav.opt import phases, recommend, region, scale
+from ksbo_mav.opt import lines, phases, recommend, region, scale
 from ksbo_mav.opt.calibration import BetaCalibration
 from ksbo_mav.opt.candidates import refine
 from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
@@ -46,7 +46,8 @@ class Proposal:
     """One proposed query: x (d,) unit cube, its posterior summary and how it was chosen."""
 
     x: np.ndarray
-    # "expand" | "ucb" | "safeopt" | "exploit" | "fallback" | "refly" | "stress" (+ "/backup" if not certified)
+    # "expand" | "ucb" | "safeopt" | "line" | "exploit" | "fallback" | "refly" | "stress" (+ "/backup" if not
+    # certified)
     kind: str
     mu: float
     sd: float
@@ -85,6 +86,7 @@ class SafeBO:
     acq_model: SafetyModel | None = field(default=None, init=False)  # main GP stretched along flat dimensions
     noise_floor: float | None = field(default=None, init=False)  # the safety GP's fixed noise std (learnt above it)
     calibration: BetaCalibration = field(init=False)  # one-step-ahead scores of the bound; the β they support
+    n_lines: int = field(default=0, init=False)  # coordinate lines flown (``line_every``; opt.lines)
 
     def __post_init__(self) -> None:
         if self.config.rule not in RULES:
@@ -124,7 +126,8 @@ class SafeBO:
             self.x0 = self.X[0].copy()
         target = self._scale_model()
         if self.adaptive.learn_safety_scale and target is not None:
-            target.spec = target.spec.with_(lengthscale=float(self.adaptive.safety_scale_bounds[0]))
+            target.spec = target.spec.with_(lengthscale=float(max(self.adaptive.safety_scale_bounds[0],
+                                                                   self.adaptive.safety_scale_floor)))
         self._refit(learn=self.adaptive.learn_safety_scale)
         if self.tr is not None:
             self.tr.center = region.incumbent(self)
@@ -290,6 +293,10 @@ class SafeBO:
 
     def _propose(self) -> Proposal:
         c = self.config
+        if lines.line_turn(self):
+            line = lines.coordinate_proposal(self)
+            if line is not None:
+                return line
         mu_d, sd_d, lcb_d, ucb_d = self.bounds(self.X)
         C = region.candidates(self, region.anchors(self, lcb_d, ucb_d))  # opt.region: clouds around anchors
         _, _, lcb, _ = self.bounds(C)

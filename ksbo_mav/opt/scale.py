@@ -51,7 +51,7 @@ def relearn(bo: "SafeBO", target: SafetyModel, Xc: np.ndarray, yc: np.ndarray, l
         if bo.fixed_scale is None:
             bo.fixed_scale = np.broadcast_to(np.asarray(target.spec.lengthscale, float), (bo.model.dim,)).copy()
         base = bo.fixed_scale
-    ls = np.maximum(base * bo.scale_factor, a.safety_scale_bounds[0])
+    ls = np.maximum(np.maximum(base, a.safety_scale_floor) * bo.scale_factor, a.safety_scale_bounds[0])
     target.spec = target.spec.with_(lengthscale=tuple(float(v) for v in ls))
     target.fit(Xc, yc)
     bo.scale_history.append([float(v) for v in ls])
