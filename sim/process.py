@@ -7,11 +7,13 @@ address. Standard library only (``ksbo_sim`` never imports ``ksbo_mav``).
 
 from __future__ import annotations
 
+import collections
 import select
 import signal
 import socket
 import subprocess
 import sys
+import threading
 
 from ksbo_sim.errors import SimStartError
 
@@ -21,6 +23,15 @@ def free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
+
+
+#: Lines of the child's stdout and stderr :meth:`SimProcess.output` keeps.
+TAIL_LINES = 1000
+
+
+def _drain(pipe, tail: collections.deque) -> None:
+    for line in iter(pipe.readline, ""):
+        tail.append(line)
 
 
 class SimProcess:
@@ -48,6 +59,20 @@ class SimProcess:
         addr = line.split()[2]  # udp:127.0.0.1:PORT
         self.kind, self.host, port = addr.split(":")
         self.port = int(port)
+        # Drain both pipes from now on: a child whose unread pipe fills (~64 KB of warnings over a long campaign)
+        # blocks on its next write and stops answering. The last lines are kept for :meth:`output`.
+        self._tails = (collections.deque(maxlen=TAIL_LINES), collections.deque(maxlen=TAIL_LINES))
+        self._drains = [threading.Thread(target=_drain, args=(pipe, tail), daemon=True)
+                        for pipe, tail in zip((self.proc.stdout, self.proc.stderr), self._tails)]
+        for t in self._drains:
+            t.start()
+
+    def output(self, timeout: float = 5.0) -> tuple[str, str]:
+        """The child's last :data:`TAIL_LINES` lines of stdout and stderr after the ready line (complete once it
+        has exited: call after :meth:`stop`)."""
+        for t in self._drains:
+            t.join(timeout if self.proc.poll() is not None else 0.0)
+        return "".join(self._tails[0]), "".join(self._tails[1])
 
     def stop(self, sig: int = signal.SIGTERM, timeout: float = 10.0) -> int:
         """Signal the simulator, wait up to ``timeout`` s (then kill); returns its exit code."""

@@ -153,8 +153,9 @@ def test_sigterm_exits_cleanly_and_two_instances_run_at_once():
     finally:
         codes = [s.stop(signal.SIGTERM) for s in sims]
     assert codes == [0, 0]
-    assert all("ksbo-sim stopped" in s.proc.stderr.read() for s in sims)
-    assert all("Traceback" not in (s.proc.stdout.read()) for s in sims)
+    outputs = [s.output() for s in sims]
+    assert all("ksbo-sim stopped" in err for _, err in outputs)
+    assert all("Traceback" not in out + err for out, err in outputs)
 
 
 def test_tcp_server():
@@ -230,3 +231,18 @@ def test_lockstep_slower_than_real_time_still_heartbeats_every_wall_second():
             while (m := cli.recv(["HEARTBEAT", "LOCAL_POSITION_NED"], max(0.0, deadline - time.monotonic()))):
                 beats += m.get_type() == "HEARTBEAT"
         assert beats >= 3
+
+
+def test_a_chatty_simulator_keeps_answering_because_its_pipes_are_drained(tmp_path):
+    """SimProcess reads the child's stdout and stderr: a simulator whose parameter file cannot be written warns on
+    every changed value, and 1000 warnings (~120 KB, more than a pipe holds) must not block it; the last lines are
+    kept for ``output()``."""
+    path = tmp_path / "sim.parm"
+    with running_sim("--lockstep", "--params", str(path)) as (sim, cli):
+        cli.hello()
+        path.unlink(missing_ok=True)
+        path.mkdir()  # a directory where the file was: every save now fails with a warning
+        for i in range(1000):  # each answered write of a changed value warns (~120 bytes)
+            assert cli.param_set("POS_X_P", 0.15 + 1e-4 * (i % 2 + 1)) is not None, f"no answer to write {i + 1}"
+    _, err = sim.output()
+    assert err.count("cannot write") >= 990
