@@ -15,6 +15,7 @@ import numpy as np
 from ksbo_mav.errors import InputError
 from ksbo_mav.profiles import Profile, load_profile
 from ksbo_mav.scoring import Score, ScoreConfig, score, score_rollout
+from ksbo_mav.symptoms import chatter_ratio
 from ksbo_sim.episode import (REASONS, EpisodeConfig, MonitorConfig, Rollout, fixed_initial_states,
                               random_initial_states, simulate, stress_initial_state)
 from ksbo_sim.monitor import Outcome
@@ -141,10 +142,13 @@ class SimObjective:
         random initial velocity unless ``init`` (6,) is given."""
         from ksbo_mav.opt.outcome import Evaluation
 
-        X = np.atleast_2d(np.asarray(x, dtype=float))
+        X = np.atleast_2d(self.profile.check_gains(np.asarray(x, dtype=float), within_box=False))
         init = random_initial_states(1, self.rng, self.episode) if init is None else np.atleast_2d(init)
-        sc, outcomes = self.scores(X, init, with_outcomes=True)
-        return Evaluation(float(sc.P[0]), outcomes[0])
+        r = self._simulate(X, init, self.episode)
+        self.n_episodes += 1
+        lo, hi = self.score_config.window
+        symptoms = {"pitch_chatter": chatter_ratio(r.states[0, lo + 1 : hi + 1, 5])}
+        return Evaluation(float(score_rollout(r, self.score_config).P[0]), r.outcomes[0], symptoms)
 
     def stress(self, x: np.ndarray) -> Any:
         """One episode of gains ``x`` (d,) from the hardest start (:func:`ksbo_sim.episode.stress_initial_state`),

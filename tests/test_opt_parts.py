@@ -147,3 +147,47 @@ def test_coordinate_lines_move_one_gain_at_a_time_through_the_incumbent_and_stay
     assert options_for("ksbo").line_every == 0
     with pytest.raises(InputError, match="line_every"):
         options_for("ksbo", {"line_every": 1.5})
+
+
+def test_chatter_ratio_tells_a_step_to_step_limit_cycle_from_a_smooth_rate() -> None:
+    from ksbo_mav.symptoms import chatter_ratio
+
+    t = np.arange(300) * 0.02
+    assert chatter_ratio(np.sin(2 * np.pi * 0.5 * t)) < 0.1  # a slow, smooth rate
+    assert chatter_ratio(np.where(np.arange(300) % 2, 1.0, -1.0)) == pytest.approx(2.0)  # flips every step
+    noise = np.random.default_rng(0).standard_normal(3000)
+    assert chatter_ratio(noise) == pytest.approx(np.sqrt(2), abs=0.05)
+    assert np.isnan(chatter_ratio(np.zeros(10))) and np.isnan(chatter_ratio(np.array([1.0, np.nan])))
+
+
+def test_a_chattering_incumbent_steps_its_d_gain_down_and_only_that_gain() -> None:
+    """``chatter_dim``: while the incumbent's flights report ``pitch_chatter`` above the threshold, every
+    ``chatter_every``-th iteration queries a certified point that lowers only that gain, by at most
+    ``chatter_step``; a quiet incumbent gets the usual rule."""
+    from ksbo_mav.opt import region
+    from ksbo_mav.opt.config import SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    def state(chatter: float) -> SafeBO:
+        rng = np.random.default_rng(3)
+        X = 0.45 + 0.1 * rng.random((15, 3))
+        y = 0.4 + 0.2 * X[:, 0] - 0.1 * X[:, 1]
+        model = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.2, signal_std=1.0, noise_std=0.01), 3)
+        bo = SafeBO(model, SafeBOConfig(chatter_dim=2, chatter_every=1, chatter_step=0.05, n_local=256, n_global=64),
+                    np.ones(3, bool), np.random.default_rng(0), budget=100,
+                    symptoms=[{"pitch_chatter": chatter}] * 15)
+        bo.fit(X, y)
+        bo.iteration = 1
+        return bo
+
+    bo = state(1.4)
+    xb = region.incumbent(bo)
+    p = bo.propose()
+    assert p.kind == "symptom" and p.lcb >= bo.p_min
+    moved = p.x - xb
+    assert np.all(moved[:2] == 0) and -0.05 - 1e-9 <= moved[2] < 0
+    assert state(0.05).propose().kind != "symptom"
+    assert options_for("ksbo").chatter_dim == -1
+    with pytest.raises(InputError, match="chatter_dim"):
+        options_for("ksbo", {"chatter_dim": -2})

@@ -55,6 +55,11 @@ class SafeBOConfig:
         line_every: every this many BO iterations before exploitation, query a coordinate line through the
             incumbent instead (the gains in turn; opt.lines): the certified set then grows along every gain, not
             only the steepest. 0 = off.
+        chatter_dim: ≥ 0: every ``chatter_every``-th BO iteration before exploitation, while the incumbent's flights
+            show the pitch rate chattering (``pitch_chatter`` symptom above ``chatter_threshold``: the rate changes
+            sign step to step, the limit cycle a too-high D gain drives), query the lowest certified value of this
+            gain (the D gain) on the line through the incumbent (opt.lines). −1 = off.
+        chatter_every, chatter_threshold: see ``chatter_dim``.
     """
 
     beta: float = 4.0
@@ -89,6 +94,10 @@ class SafeBOConfig:
     beta_cap: float | None = 10.0
     ucb_margin: float = 0.0
     line_every: int = 0
+    chatter_dim: int = -1
+    chatter_every: int = 3
+    chatter_threshold: float = 1.0
+    chatter_step: float = 0.05
 
 
 @dataclass(frozen=True)

@@ -99,3 +99,48 @@ def coordinate_proposal(bo: "SafeBO") -> "Proposal | None":
         if not bo.safe_mask(x[None, :])[0]:
             kind += "/backup"
     return Proposal(x, kind, float(mu[i]), float(sd[i]), float(lcb[i]))
+
+
+def _incumbent_symptom(bo: "SafeBO", name: str, xb: np.ndarray) -> float | None:
+    """Mean symptom ``name`` over the run's flights at exactly ``xb`` (d,), or None if none reported it."""
+    if not bo.symptoms:
+        return None
+    idx = np.flatnonzero(np.all(bo.X[bo.n_prior :] == xb, axis=1))
+    vals = [bo.symptoms[i][name] for i in idx if i < len(bo.symptoms) and bo.symptoms[i]
+            and np.isfinite(bo.symptoms[i].get(name, np.nan))]
+    return float(np.mean(vals)) if vals else None
+
+
+def symptom_turn(bo: "SafeBO") -> bool:
+    """Does this iteration check for the chatter symptom? Every ``chatter_every``-th BO iteration before
+    exploitation, when ``chatter_dim`` is set."""
+    from ksbo_mav.opt import phases
+
+    c = bo.config
+    return c.chatter_dim >= 0 and bo.iteration > 0 and bo.iteration % c.chatter_every == 0 and phases.exploring(bo)
+
+
+def symptom_proposal(bo: "SafeBO") -> "Proposal | None":
+    """While the incumbent's flights chatter: the lowest certified value of gain ``chatter_dim`` on the line through
+    the incumbent (the farthest safe step down the D gain; the score along it may be a plateau that rewards the step
+    only past a cliff). None when the incumbent does not chatter or nothing lower is certified."""
+    from ksbo_mav.opt.safe_bo import Proposal
+
+    dim = bo.config.chatter_dim
+    xb = region.incumbent(bo)
+    chatter = _incumbent_symptom(bo, "pitch_chatter", xb)
+    if chatter is None or chatter <= bo.config.chatter_threshold or not bo.free[dim]:
+        return None
+    direction = np.zeros(xb.size)
+    direction[dim] = 1.0
+    s, P = line_grid(xb, direction, LINE_POINTS)
+    i0 = int(np.argmin(np.abs(s)))
+    mu, sd, lcb, _ = bo.bounds(P)
+    lo, _ = safe_interval(bo.feasible(P, lcb), i0)
+    lo = max(lo, int(np.searchsorted(s, -bo.config.chatter_step)))  # at most chatter_step down
+    if lo >= i0 - 1:
+        return None
+    x = P[lo].copy()
+    _, _, _, _, mu_c, sd_c = bo._bounds_parts(x[None, :])
+    bo.calibration.predicted(x, mu_c[:, 0], sd_c[:, 0])
+    return Proposal(x, "symptom", float(mu[lo]), float(sd[lo]), float(lcb[lo]))

@@ -68,6 +68,11 @@ class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, Safe
             raise InputError("ucb_margin must be non-negative (0 = off)")
         if isinstance(self.line_every, bool) or not (int(self.line_every) == self.line_every >= 0):
             raise InputError("line_every must be a non-negative integer (0 = off)")
+        if isinstance(self.chatter_dim, bool) or not int(self.chatter_dim) == self.chatter_dim >= -1:
+            raise InputError("chatter_dim must be a gain index (0-based) or -1 (off)")
+        if not (int(self.chatter_every) == self.chatter_every >= 1 and self.chatter_step > 0
+                and self.chatter_threshold > 0):
+            raise InputError("chatter_every must be a positive integer, chatter_step and chatter_threshold positive")
         if not (0 < self.tr_min <= self.tr_init <= self.tr_max):
             raise InputError("trust region sizes must satisfy 0 < tr_min <= tr_init <= tr_max")
 
@@ -170,6 +175,9 @@ METHOD_DEFAULTS: dict[str, dict[str, Any]] = {
     # Item AI: coordinate lines through the incumbent (line_every 4 / 10) crossed the pitch-D cliff of pitch inertia
     # x0.5 in 1 of 4 seeds, as ksbo does, and lost on the nominal tuning seeds 100-111 (median 0.908 -> 0.885 / 0.892,
     # 1 win, 10 / 9 losses): an option.
+    # Item AL: a step down the pitch D gain while the incumbent's pitch rate chatters (chatter_dim 8 on the planar
+    # profile): tuning seeds 100-129 median / mean 0.902 / 0.819 -> 0.911 / 0.861, aborts 43 -> 58; on the suite
+    # pitch inertia x0.5 0.418 -> 0.905, but more crashes on mass +30 % and noise x3: an option.
     "ksbo": {"max_order": 4, "beta": 5.0, "reselect_every": 10, "safety_lengthscale": 0.06, "unsafe_scale_shrink": 0.7,
              "failure_scale_shrink": 0.7},
     # Issue 13: ksbo with the learned safety scale, trust region, abort budget, re-flown recommendation and

@@ -31,6 +31,8 @@ class Evaluation:
 
     value: float | None
     outcome: Outcome = Outcome.COMPLETE
+    # What the flight showed beyond its score, e.g. {"pitch_chatter": 1.37} (ksbo_mav.symptoms); None: not measured.
+    symptoms: dict[str, float] | None = None
 
     @property
     def censored(self) -> bool:
@@ -51,7 +53,7 @@ def as_evaluation(raw: Any, index: int, x: np.ndarray) -> Evaluation:
             value = _number(value, where)
         elif outcome is Outcome.COMPLETE:
             raise ObjectiveError(f"fun returned a complete Evaluation without a value at {where}")
-        return Evaluation(value, outcome)
+        return Evaluation(value, outcome, raw.symptoms)
     return Evaluation(_number(raw, where), Outcome.COMPLETE)
 
 

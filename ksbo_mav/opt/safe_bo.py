@@ -87,6 +87,7 @@ class SafeBO:
     noise_floor: float | None = field(default=None, init=False)  # the safety GP's fixed noise std (learnt above it)
     calibration: BetaCalibration = field(init=False)  # one-step-ahead scores of the bound; the β they support
     n_lines: int = field(default=0, init=False)  # coordinate lines flown (``line_every``; opt.lines)
+    symptoms: list[dict[str, float] | None] | None = None  # per evaluation of the run (Problem.symptoms)
 
     def __post_init__(self) -> None:
         if self.config.rule not in RULES:
@@ -295,6 +296,10 @@ class SafeBO:
         c = self.config
         if lines.line_turn(self):
             line = lines.coordinate_proposal(self)
+            if line is not None:
+                return line
+        if lines.symptom_turn(self):
+            line = lines.symptom_proposal(self)
             if line is not None:
                 return line
         mu_d, sd_d, lcb_d, ucb_d = self.bounds(self.X)

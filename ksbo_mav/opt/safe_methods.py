@@ -77,7 +77,7 @@ def _build(
         raise ValueError(f"unknown safety_kernel {opts.safety_kernel!r}")
     return SafeBO(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
                   safety_model=safety, n_prior=len(problem.prior_y), budget=problem.budget,
-                  adaptive=part(opts, AdaptiveConfig))
+                  adaptive=part(opts, AdaptiveConfig), symptoms=problem.symptoms)
 
 
 def _outcome_masks(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
