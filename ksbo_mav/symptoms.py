@@ -19,3 +19,15 @@ def chatter_ratio(rate: np.ndarray) -> float:
         return float("nan")
     total = float(np.sqrt(np.mean(r**2)))
     return float(np.sqrt(np.mean(np.diff(r) ** 2)) / total) if total > 0 else float("nan")
+
+
+def trajectory_symptoms(kind: str, traj, window: tuple[int, int]) -> dict[str, float] | None:
+    """Symptoms of a flown trajectory (``ksbo_mav.objective.Trajectory``) of a ``kind`` mission: the planar
+    figure-8's ``pitch_chatter`` over the scored ``window`` of control steps (complete flights: the same samples as
+    the in-process episode's); None for other missions or when the window holds no rate."""
+    if kind != "figure8-xz" or traj.states.size == 0:
+        return None
+    lo, hi = window
+    inside = (np.asarray(traj.steps) >= lo) & (np.asarray(traj.steps) < hi)
+    ratio = chatter_ratio(np.asarray(traj.states)[inside, 5])
+    return {"pitch_chatter": ratio} if np.isfinite(ratio) else None

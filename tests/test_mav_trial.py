@@ -13,6 +13,8 @@ import pytest
 
 from mav_tune_helpers import GAINS, baseline, fresh_read, sim_and_endpoint
 
+from ksbo_mav.campaign.journal import JournalEntry
+from ksbo_mav.campaign.replay import evaluation
 from ksbo_mav.cli import main
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.objective import MavlinkObjective, TrialStopped
@@ -81,6 +83,13 @@ def test_trial_live_score_equals_tlog_score(rig, capsys):
     # (tests/test_sim_mavlink_flight.py), and the MAVLink trial starts from a settled hover.
     inproc = SimObjective().fly(v.profile.default, init=np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])).P
     assert f.P == pytest.approx(inproc, abs=0.01)
+    # The trial reports what the in-process trial reports beyond P (issue 13 item AL: a0's pitch rate chatters),
+    # and the journal keeps it, so a resumed campaign replays it to the optimiser.
+    hover = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    chatter = SimObjective(monitor=True).trial(v.profile.default, hover).symptoms["pitch_chatter"]
+    assert chatter > 1.2 and f.meta["symptoms"]["pitch_chatter"] == pytest.approx(chatter, abs=0.1)
+    entry = JournalEntry.parse(json.loads(JournalEntry.of("opt", f).to_json()), "test")
+    assert evaluation(entry).symptoms == f.meta["symptoms"]
 
     tlog = f.meta["tlog"]
     assert main(["score", tlog, "--json"]) == 0

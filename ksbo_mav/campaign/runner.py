@@ -161,7 +161,7 @@ class Campaign:
         """An optimiser evaluation: a flown trial, with the monitor's aborts and crashes as censored outcomes
         (``stress``: from the hardest start, for the re-fly phase's ``refly_stress``)."""
         f = self._fly(x, "opt", stress)
-        return Evaluation(f.P, f.outcome.evaluation)
+        return Evaluation(f.P, f.outcome.evaluation, f.meta.get("symptoms"))
 
     def _baseline(self, x0: np.ndarray) -> None:
         """Fly the baseline gains first (answered from the journal when the optimiser asks for x0): every 3-D

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.errors import KsboError, VehicleError
+from ksbo_mav.symptoms import trajectory_symptoms
 from ksbo_mav.jsonio import dumps
 from ksbo_mav.mav.approach import Approach, check_moving_start, start_velocity, stress_velocity
 from ksbo_mav.mav.monitor import Monitor, limits_from_profile
@@ -279,8 +280,9 @@ class MavlinkObjective:
         if outcome is not T.OK:
             score["P"] = min(float(score["P"]), -1.0 / n)  # an aborted trial is unsafe, whatever its length
             score["safe"] = False
+        symptoms = trajectory_symptoms(self.mission.kind, traj, self.mission.window)  # for chatter_dim
         meta = {"trial": i, "label": label, "outcome": outcome.value, "outcome_text": outcome.text,
-                "message": message, "restored": restored, "tlog": str(stem.with_suffix(".tlog")),
+                "symptoms": symptoms, "message": message, "restored": restored, "tlog": str(stem.with_suffix(".tlog")),
                 "record": str(stem.with_suffix(".json")), "wall_s": time.time() - started,
                 "vehicle_values": self.vehicle.gains.to_vehicle(x), "trajectory": info, **extra}
         doc = {"gains": x.tolist(), "names": self.profile.names, "score": score, **meta}
