@@ -26,7 +26,6 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.errors import KsboError, VehicleError
-from ksbo_mav.symptoms import trajectory_symptoms
 from ksbo_mav.jsonio import dumps
 from ksbo_mav.mav.approach import Approach, check_moving_start, start_velocity, stress_velocity
 from ksbo_mav.mav.monitor import Monitor, limits_from_profile
@@ -37,6 +36,7 @@ from ksbo_mav.mav.tlog import TlogWriter
 from ksbo_mav.mav.trajectory import TrialRecorder, after_text, end_text, ref_text, start_text
 from ksbo_mav.mav.vehicle import LinkLost, PreflightError, Vehicle
 from ksbo_mav.objective import Flight, Trajectory
+from ksbo_mav.symptoms import trajectory_symptoms
 
 
 class TrialStopped(VehicleError):

@@ -59,46 +59,43 @@ def line_query(ucb: np.ndarray, sd: np.ndarray, lo: int, hi: int, i0: int) -> in
     return ie if ie is not None and sd[ie] > sd[ia] else ia
 
 
-def line_turn(bo: "SafeBO") -> bool:
-    """Does this iteration fly a coordinate line? Every ``line_every``-th BO iteration before exploitation."""
+def _every(bo: "SafeBO", k: int) -> bool:
+    """Is this the turn of a rule that acts every ``k``-th BO iteration (k > 0) before exploitation?"""
     from ksbo_mav.opt import phases
 
-    k = bo.config.line_every
     return k > 0 and bo.iteration > 0 and bo.iteration % k == 0 and phases.exploring(bo)
+
+
+def _axis_line(bo: "SafeBO", xb: np.ndarray, axis: int) -> tuple[np.ndarray, ...]:
+    """The line through ``xb`` (d,) along gain ``axis`` on :data:`LINE_POINTS` points: offsets s (n,), points
+    (n, d), the index i0 of ``xb``, the UCB and std (n,), and the certified interval [lo, hi] ∋ i0."""
+    direction = np.zeros(xb.size)
+    direction[axis] = 1.0
+    s, P = line_grid(xb, direction, LINE_POINTS)
+    i0 = int(np.argmin(np.abs(s)))
+    _, sd, lcb, ucb = bo.bounds(P)
+    lo, hi = safe_interval(bo.feasible(P, lcb), i0)
+    return s, P, i0, ucb, sd, lo, hi
+
+
+def line_turn(bo: "SafeBO") -> bool:
+    """Does this iteration fly a coordinate line? Every ``line_every``-th BO iteration before exploitation."""
+    return _every(bo, bo.config.line_every)
 
 
 def coordinate_proposal(bo: "SafeBO") -> "Proposal | None":
     """The next coordinate line's query through the incumbent, or None when the line offers nothing certified
     beyond the incumbent (the caller then proposes as usual). The axes are taken in turn over the free ones."""
-    from ksbo_mav.opt.safe_bo import Proposal
-
     axes = np.flatnonzero(bo.free)
     if axes.size == 0:
         return None
     axis = int(axes[bo.n_lines % axes.size])
     bo.n_lines += 1
-    xb = region.incumbent(bo)
-    direction = np.zeros(xb.size)
-    direction[axis] = 1.0
-    s, P = line_grid(xb, direction, LINE_POINTS)
-    i0 = int(np.argmin(np.abs(s)))
-    mu, sd, lcb, ucb = bo.bounds(P)
-    ok = bo.feasible(P, lcb)
-    lo, hi = safe_interval(ok, i0)
+    _, P, i0, ucb, sd, lo, hi = _axis_line(bo, region.incumbent(bo), axis)
     if lo == hi:
         return None
     i = line_query(ucb, sd, lo, hi, i0)
-    if i == i0:
-        return None
-    x = P[i].copy()
-    _, _, _, _, mu_c, sd_c = bo._bounds_parts(x[None, :])
-    bo.calibration.predicted(x, mu_c[:, 0], sd_c[:, 0])
-    kind = "line"
-    if bo.relaxed:  # certified with backup_beta: say so when the safety β alone would not certify it
-        bo.relaxed = False
-        if not bo.safe_mask(x[None, :])[0]:
-            kind += "/backup"
-    return Proposal(x, kind, float(mu[i]), float(sd[i]), float(lcb[i]))
+    return None if i == i0 else bo.finish_proposal(P[i], "line")
 
 
 def _incumbent_symptom(bo: "SafeBO", name: str, xb: np.ndarray) -> float | None:
@@ -114,33 +111,18 @@ def _incumbent_symptom(bo: "SafeBO", name: str, xb: np.ndarray) -> float | None:
 def symptom_turn(bo: "SafeBO") -> bool:
     """Does this iteration check for the chatter symptom? Every ``chatter_every``-th BO iteration before
     exploitation, when ``chatter_dim`` is set."""
-    from ksbo_mav.opt import phases
-
-    c = bo.config
-    return c.chatter_dim >= 0 and bo.iteration > 0 and bo.iteration % c.chatter_every == 0 and phases.exploring(bo)
+    return bo.config.chatter_dim >= 0 and _every(bo, bo.config.chatter_every)
 
 
 def symptom_proposal(bo: "SafeBO") -> "Proposal | None":
     """While the incumbent's flights chatter: the lowest certified value of gain ``chatter_dim`` on the line through
-    the incumbent (the farthest safe step down the D gain; the score along it may be a plateau that rewards the step
-    only past a cliff). None when the incumbent does not chatter or nothing lower is certified."""
-    from ksbo_mav.opt.safe_bo import Proposal
-
+    the incumbent, at most ``chatter_step`` down (the score along it may be a plateau that rewards the step only
+    past a cliff). None when the incumbent does not chatter or nothing lower is certified."""
     dim = bo.config.chatter_dim
     xb = region.incumbent(bo)
     chatter = _incumbent_symptom(bo, "pitch_chatter", xb)
     if chatter is None or chatter <= bo.config.chatter_threshold or not bo.free[dim]:
         return None
-    direction = np.zeros(xb.size)
-    direction[dim] = 1.0
-    s, P = line_grid(xb, direction, LINE_POINTS)
-    i0 = int(np.argmin(np.abs(s)))
-    mu, sd, lcb, _ = bo.bounds(P)
-    lo, _ = safe_interval(bo.feasible(P, lcb), i0)
+    s, P, i0, _, _, lo, _ = _axis_line(bo, xb, dim)
     lo = max(lo, int(np.searchsorted(s, -bo.config.chatter_step)))  # at most chatter_step down
-    if lo >= i0 - 1:
-        return None
-    x = P[lo].copy()
-    _, _, _, _, mu_c, sd_c = bo._bounds_parts(x[None, :])
-    bo.calibration.predicted(x, mu_c[:, 0], sd_c[:, 0])
-    return Proposal(x, "symptom", float(mu[lo]), float(sd[lo]), float(lcb[lo]))
+    return None if lo >= i0 - 1 else bo.finish_proposal(P[lo], "symptom")

@@ -46,8 +46,8 @@ class Proposal:
     """One proposed query: x (d,) unit cube, its posterior summary and how it was chosen."""
 
     x: np.ndarray
-    # "expand" | "ucb" | "safeopt" | "line" | "exploit" | "fallback" | "refly" | "stress" (+ "/backup" if not
-    # certified)
+    # "expand" | "ucb" | "safeopt" | "line" | "symptom" | "exploit" | "fallback" | "refly" | "stress" (+ "/backup"
+    # if not certified)
     kind: str
     mu: float
     sd: float
@@ -318,11 +318,17 @@ class SafeBO:
         starts, s_ref = refine(rule, C[order], self.rng, c.refine_rounds, c.refine_samples, c.refine_scale,
                                free=self.free)
         x = starts[int(np.argmax(s_ref))]
-        m, s, lo, _, mu_c, sd_c = self._bounds_parts(x[None, :])
-        if not self.feasible(x[None, :], lo)[0]:  # cannot happen (refine only accepts feasible moves): a guard
+        parts = self._bounds_parts(x[None, :])
+        if not self.feasible(x[None, :], parts[2])[0]:  # cannot happen (refine only accepts feasible moves): a guard
             x = C[order[0]]
-            m, s, lo, _, mu_c, sd_c = self._bounds_parts(x[None, :])
-        kind = rule.kind
+            parts = self._bounds_parts(x[None, :])
+        return self.finish_proposal(x, rule.kind, parts)
+
+    def finish_proposal(self, x: np.ndarray, kind: str, parts: tuple[np.ndarray, ...] | None = None) -> Proposal:
+        """The query x (d,) as a :class:`Proposal`: its posterior summary (``parts``: :meth:`_bounds_parts` at x if
+        already computed), noted for the β calibration, with "/backup" added to ``kind`` while :attr:`relaxed`
+        if only the backup's β certifies it."""
+        m, s, lo, _, mu_c, sd_c = self._bounds_parts(x[None, :]) if parts is None else parts
         self.calibration.predicted(x, mu_c[:, 0], sd_c[:, 0])
         if self.relaxed:
             self.relaxed = False
