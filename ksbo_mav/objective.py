@@ -15,7 +15,7 @@ import numpy as np
 from ksbo_mav.errors import InputError
 from ksbo_mav.profiles import Profile, load_profile
 from ksbo_mav.scoring import Score, ScoreConfig, score, score_rollout
-from ksbo_mav.symptoms import chatter_ratio
+from ksbo_mav.symptoms import rate_symptoms
 from ksbo_sim.episode import (REASONS, EpisodeConfig, MonitorConfig, Rollout, fixed_initial_states,
                               random_initial_states, simulate, stress_initial_state)
 from ksbo_sim.monitor import Outcome
@@ -147,7 +147,7 @@ class SimObjective:
         r = self._simulate(X, init, self.episode)
         self.n_episodes += 1
         lo, hi = self.score_config.window
-        symptoms = {"pitch_chatter": chatter_ratio(r.states[0, lo + 1 : hi + 1, 5])}
+        symptoms = rate_symptoms(r.states[0, lo + 1 : hi + 1, 5])
         return Evaluation(float(score_rollout(r, self.score_config).P[0]), r.outcomes[0], symptoms)
 
     def stress(self, x: np.ndarray) -> Any:

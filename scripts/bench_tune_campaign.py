@@ -2,11 +2,12 @@
 
 Reports wall time, the recommendation's P re-flown over MAVLink and its in-process re-flown E[P] over the fixed
 initial conditions (comparable with the in-process optimiser benchmark), unsafe and aborted trials, and whether
-every exit left the baseline verified on the vehicle. Writes the section "MAVLink tuning campaign (issue 7)" of
-BENCHMARKS.md.
+every exit left the baseline verified on the vehicle. With ``--write`` (or ``--report``) it writes the section
+"MAVLink tuning campaign (issue 7)" of BENCHMARKS.md; a plain run only prints it (and keeps OUT/results.json), so
+a one-off experiment does not replace the committed section.
 
     python scripts/bench_tune_campaign.py [--seeds 0 1 2] [--budget 60] [--methods ksbo ksbo-adaptive]
-        [--out bench-runs/tune]
+        [--out bench-runs/tune] [--write]
     python scripts/bench_tune_campaign.py --report A/results.json B/results.json   # combine runs split over processes
 """
 
@@ -130,6 +131,8 @@ def main() -> None:
     ap.add_argument("--report", nargs="+", metavar="RESULTS_JSON",
                     help="fly nothing: write the section from these results.json files (runs split over processes)")
     ap.add_argument("--command", help="with --report: the command line to quote in the section")
+    ap.add_argument("--write", action="store_true",
+                    help="write the section into BENCHMARKS.md after flying (default: print it only)")
     args = ap.parse_args()
     if args.report:
         rows = [r for f in args.report for r in json.loads(Path(f).read_text())]
@@ -157,8 +160,11 @@ def main() -> None:
     body = report(rows, f"python scripts/bench_tune_campaign.py --seeds {' '.join(map(str, args.seeds))} "
                         f"--budget {args.budget} --methods {' '.join(args.methods)}"
                         + "".join(f" --option {o}" for o in args.option))
-    write_section("MAVLink tuning campaign (issue 7)", body)
+    if args.write:
+        write_section("MAVLink tuning campaign (issue 7)", body)
     print(body)
+    if not args.write:
+        print(f"(BENCHMARKS.md unchanged; --report {out / 'results.json'} ... writes the section)")
 
 
 if __name__ == "__main__":

@@ -86,8 +86,10 @@ def test_trial_live_score_equals_tlog_score(rig, capsys):
     # The trial reports what the in-process trial reports beyond P (issue 13 item AL: a0's pitch rate chatters),
     # and the journal keeps it, so a resumed campaign replays it to the optimiser.
     hover = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
-    chatter = SimObjective(monitor=True).trial(v.profile.default, hover).symptoms["pitch_chatter"]
+    inproc_symptoms = SimObjective(monitor=True).trial(v.profile.default, hover).symptoms
+    chatter, line = inproc_symptoms["pitch_chatter"], inproc_symptoms["pitch_line"]
     assert chatter > 1.2 and f.meta["symptoms"]["pitch_chatter"] == pytest.approx(chatter, abs=0.1)
+    assert line > 0.8 and f.meta["symptoms"]["pitch_line"] == pytest.approx(line, abs=0.1)
     entry = JournalEntry.parse(json.loads(JournalEntry.of("opt", f).to_json()), "test")
     assert evaluation(entry).symptoms == f.meta["symptoms"]
 

@@ -160,8 +160,27 @@ def test_chatter_ratio_tells_a_step_to_step_limit_cycle_from_a_smooth_rate() -> 
     assert np.isnan(chatter_ratio(np.zeros(10))) and np.isnan(chatter_ratio(np.array([1.0, np.nan])))
 
 
+def test_line_fraction_tells_a_limit_cycle_from_noise_and_from_the_manoeuvre() -> None:
+    """``pitch_line`` (issue 13 item AM): a limit cycle is a narrow line holding most of the rate's power; white
+    noise spreads its power, so the chatter ratio (√2 for noise) cannot tell them apart but the line can."""
+    from ksbo_mav.symptoms import chatter_ratio, line_fraction, rate_symptoms
+
+    rng = np.random.default_rng(0)
+    t = np.arange(300) * 0.02
+    slow = 0.2 * np.sin(2 * np.pi * 0.5 * t)  # the manoeuvre, below the line's band
+    cycle = 0.5 * np.sin(2 * np.pi * 12.5 * t + 0.3)  # a period-4-step cycle at the 50 Hz control rate, dominant
+    noise = 0.5 * rng.standard_normal(300)  # as in the simulator: a cycle or noise that matters holds most power
+    assert line_fraction(slow + cycle) > 0.8 and line_fraction(slow) < 0.1
+    assert line_fraction(noise) < 0.1 and line_fraction(slow + noise) < 0.1
+    assert chatter_ratio(noise) > 1.0  # the ratio alone would call the noise a cycle
+    assert line_fraction(slow + cycle + 0.5 * noise) > 0.5 and line_fraction(slow + 0.1 * cycle) < 0.5
+    assert np.isnan(line_fraction(np.ones(100))) and np.isnan(line_fraction(np.full(20, 0.1)))
+    assert set(rate_symptoms(slow + cycle)) == {"pitch_line", "pitch_chatter"} and rate_symptoms(np.full(5, np.nan)) == {}
+
+
 def test_a_chattering_incumbent_steps_its_d_gain_down_and_only_that_gain() -> None:
-    """``chatter_dim``: while the incumbent's flights report ``pitch_chatter`` above the threshold, every
+    """``chatter_dim``: while the incumbent's flights report ``pitch_line`` (or the chosen ``chatter_symptom``)
+    above the threshold, every
     ``chatter_every``-th iteration queries a certified point that lowers only that gain, by at most
     ``chatter_step``; a quiet incumbent gets the usual rule."""
     from ksbo_mav.opt import region
@@ -169,25 +188,62 @@ def test_a_chattering_incumbent_steps_its_d_gain_down_and_only_that_gain() -> No
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
     from ksbo_mav.opt.safe_bo import SafeBO
 
-    def state(chatter: float) -> SafeBO:
+    def state(chatter: float, symptom: str = "pitch_line", threshold: float = 0.5) -> SafeBO:
         rng = np.random.default_rng(3)
         X = 0.45 + 0.1 * rng.random((15, 3))
         y = 0.4 + 0.2 * X[:, 0] - 0.1 * X[:, 1]
         model = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.2, signal_std=1.0, noise_std=0.01), 3)
-        bo = SafeBO(model, SafeBOConfig(chatter_dim=2, chatter_every=1, chatter_step=0.05, n_local=256, n_global=64),
-                    np.ones(3, bool), np.random.default_rng(0), budget=100,
-                    symptoms=[{"pitch_chatter": chatter}] * 15)
+        cfg = SafeBOConfig(chatter_dim=2, chatter_every=1, chatter_step=0.05, n_local=256, n_global=64,
+                           chatter_symptom=symptom, chatter_threshold=threshold)
+        bo = SafeBO(model, cfg, np.ones(3, bool), np.random.default_rng(0), budget=100,
+                    symptoms=[{symptom: chatter}] * 15)
         bo.fit(X, y)
         bo.iteration = 1
         return bo
 
-    bo = state(1.4)
+    bo = state(0.9)
     xb = region.incumbent(bo)
     p = bo.propose()
     assert p.kind == "symptom" and p.lcb >= bo.p_min
     moved = p.x - xb
     assert np.all(moved[:2] == 0) and -0.05 - 1e-9 <= moved[2] < 0
     assert state(0.05).propose().kind != "symptom"
+    assert state(1.4, "pitch_chatter", 1.0).propose().kind == "symptom"
+    assert state(0.9, "pitch_chatter", 1.0).propose().kind != "symptom"
     assert options_for("ksbo").chatter_dim == -1
+    with pytest.raises(InputError, match="chatter_symptom"):
+        options_for("ksbo", {"chatter_symptom": "roll_line"})
+
+
+def test_the_symptom_rule_keeps_queries_above_a_floor_below_the_lowest_cycling_gain() -> None:
+    """``chatter_floor`` (issue 13 item AM): once a flight has cycled, no query sets the gain more than the floor
+    below the lowest value a cycling flight had; quiet flights, or a floor of 0, leave the set alone."""
+    from ksbo_mav.opt.config import SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.symptom_rule import symptom_floor
+
+    rng = np.random.default_rng(3)
+    X = 0.45 + 0.1 * rng.random((15, 3))
+
+    def bo_with(levels: list[float], floor: float = 0.05) -> SafeBO:
+        model = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.2, signal_std=1.0, noise_std=0.01), 3)
+        bo = SafeBO(model, SafeBOConfig(chatter_dim=2, chatter_floor=floor, n_local=64, n_global=16),
+                    np.ones(3, bool), np.random.default_rng(0), budget=100,
+                    symptoms=[{"pitch_line": v} for v in levels])
+        bo.fit(X, 0.4 + 0.2 * X[:, 0])
+        return bo
+
+    cycling = [0.9 if i % 2 else 0.1 for i in range(15)]  # every other flight cycles
+    bo = bo_with(cycling)
+    lowest = X[1::2, 2].min()
+    assert symptom_floor(bo) == pytest.approx(lowest - 0.05)
+    Z = np.tile(X[0], (3, 1))
+    Z[:, 2] = [lowest - 0.06, lowest - 0.04, lowest + 0.1]
+    assert bo.feasible(Z, np.ones(3)).tolist() == [False, True, True]
+    assert symptom_floor(bo_with([0.1] * 15)) is None and bo_with([0.1] * 15).feasible(Z, np.ones(3)).all()
+    assert symptom_floor(bo_with(cycling, floor=0.0)) is None
+    with pytest.raises(InputError, match="chatter_floor"):
+        options_for("ksbo", {"chatter_floor": -0.1})
     with pytest.raises(InputError, match="chatter_dim"):
         options_for("ksbo", {"chatter_dim": -2})

@@ -225,6 +225,7 @@ class Campaign:
         try:
             base = self._baseline_values(v)
             check_moving_start(v.mission, limits_from_profile(v.profile, self.cfg.safety))
+            optimizer_options("none", self.cfg.options, self.cfg.method, v.profile)  # gain names: before flying
             if not self.resume:
                 self._create(v, base)
             x0 = v.gains.from_vehicle(base)

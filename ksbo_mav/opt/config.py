@@ -56,10 +56,14 @@ class SafeBOConfig:
             incumbent instead (the gains in turn; opt.lines): the certified set then grows along every gain, not
             only the steepest. 0 = off.
         chatter_dim: ≥ 0: every ``chatter_every``-th BO iteration before exploitation, while the incumbent's flights
-            show the pitch rate chattering (``pitch_chatter`` symptom above ``chatter_threshold``: the rate changes
-            sign step to step, the limit cycle a too-high D gain drives), query the lowest certified value of this
-            gain (the D gain) on the line through the incumbent (opt.lines). −1 = off.
-        chatter_every, chatter_threshold: see ``chatter_dim``.
+            show the pitch rate cycling (symptom ``chatter_symptom`` above ``chatter_threshold``; the default
+            ``pitch_line``: a narrow high-frequency line holds most of the rate's power, the limit cycle a too-high D
+            gain drives; ksbo_mav.symptoms), query the lowest certified value of this gain (the D gain) on the line
+            through the incumbent (opt.lines). −1 = off.
+        chatter_every, chatter_threshold, chatter_symptom: see ``chatter_dim``. ``chatter_symptom`` "pitch_chatter"
+            with threshold 1.0 is item AL's rule (noise alone trips it).
+        chatter_floor: with ``chatter_dim``, once a flight has cycled no query sets that gain more than this (unit
+            cube) below the lowest value a cycling flight had (opt.symptom_rule); 0 = no floor (item AL's rule).
     """
 
     beta: float = 4.0
@@ -96,7 +100,9 @@ class SafeBOConfig:
     line_every: int = 0
     chatter_dim: int = -1
     chatter_every: int = 3
-    chatter_threshold: float = 1.0
+    chatter_threshold: float = 0.5
+    chatter_symptom: str = "pitch_line"
+    chatter_floor: float = 0.05
     chatter_step: float = 0.05
 
 

@@ -59,14 +59,14 @@ def line_query(ucb: np.ndarray, sd: np.ndarray, lo: int, hi: int, i0: int) -> in
     return ie if ie is not None and sd[ie] > sd[ia] else ia
 
 
-def _every(bo: "SafeBO", k: int) -> bool:
+def every(bo: "SafeBO", k: int) -> bool:
     """Is this the turn of a rule that acts every ``k``-th BO iteration (k > 0) before exploitation?"""
     from ksbo_mav.opt import phases
 
     return k > 0 and bo.iteration > 0 and bo.iteration % k == 0 and phases.exploring(bo)
 
 
-def _axis_line(bo: "SafeBO", xb: np.ndarray, axis: int) -> tuple[np.ndarray, ...]:
+def axis_line(bo: "SafeBO", xb: np.ndarray, axis: int) -> tuple[np.ndarray, ...]:
     """The line through ``xb`` (d,) along gain ``axis`` on :data:`LINE_POINTS` points: offsets s (n,), points
     (n, d), the index i0 of ``xb``, the UCB and std (n,), and the certified interval [lo, hi] ∋ i0."""
     direction = np.zeros(xb.size)
@@ -80,7 +80,7 @@ def _axis_line(bo: "SafeBO", xb: np.ndarray, axis: int) -> tuple[np.ndarray, ...
 
 def line_turn(bo: "SafeBO") -> bool:
     """Does this iteration fly a coordinate line? Every ``line_every``-th BO iteration before exploitation."""
-    return _every(bo, bo.config.line_every)
+    return every(bo, bo.config.line_every)
 
 
 def coordinate_proposal(bo: "SafeBO") -> "Proposal | None":
@@ -91,38 +91,8 @@ def coordinate_proposal(bo: "SafeBO") -> "Proposal | None":
         return None
     axis = int(axes[bo.n_lines % axes.size])
     bo.n_lines += 1
-    _, P, i0, ucb, sd, lo, hi = _axis_line(bo, region.incumbent(bo), axis)
+    _, P, i0, ucb, sd, lo, hi = axis_line(bo, region.incumbent(bo), axis)
     if lo == hi:
         return None
     i = line_query(ucb, sd, lo, hi, i0)
     return None if i == i0 else bo.finish_proposal(P[i], "line")
-
-
-def _incumbent_symptom(bo: "SafeBO", name: str, xb: np.ndarray) -> float | None:
-    """Mean symptom ``name`` over the run's flights at exactly ``xb`` (d,), or None if none reported it."""
-    if not bo.symptoms:
-        return None
-    idx = np.flatnonzero(np.all(bo.X[bo.n_prior :] == xb, axis=1))
-    vals = [bo.symptoms[i][name] for i in idx if i < len(bo.symptoms) and bo.symptoms[i]
-            and np.isfinite(bo.symptoms[i].get(name, np.nan))]
-    return float(np.mean(vals)) if vals else None
-
-
-def symptom_turn(bo: "SafeBO") -> bool:
-    """Does this iteration check for the chatter symptom? Every ``chatter_every``-th BO iteration before
-    exploitation, when ``chatter_dim`` is set."""
-    return bo.config.chatter_dim >= 0 and _every(bo, bo.config.chatter_every)
-
-
-def symptom_proposal(bo: "SafeBO") -> "Proposal | None":
-    """While the incumbent's flights chatter: the lowest certified value of gain ``chatter_dim`` on the line through
-    the incumbent, at most ``chatter_step`` down (the score along it may be a plateau that rewards the step only
-    past a cliff). None when the incumbent does not chatter or nothing lower is certified."""
-    dim = bo.config.chatter_dim
-    xb = region.incumbent(bo)
-    chatter = _incumbent_symptom(bo, "pitch_chatter", xb)
-    if chatter is None or chatter <= bo.config.chatter_threshold or not bo.free[dim]:
-        return None
-    s, P, i0, _, _, lo, _ = _axis_line(bo, xb, dim)
-    lo = max(lo, int(np.searchsorted(s, -bo.config.chatter_step)))  # at most chatter_step down
-    return None if lo >= i0 - 1 else bo.finish_proposal(P[lo], "symptom")

@@ -8,6 +8,7 @@ from numbers import Real
 from typing import Any, Mapping
 
 from ksbo_mav.errors import InputError
+from ksbo_mav.symptoms import SYMPTOMS
 from ksbo_mav.opt.config import (AdaptiveConfig, BaselineConfig, ModelConfig, SafeBOConfig, SelectionConfig,
                                  part)
 
@@ -71,8 +72,10 @@ class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, Safe
         if isinstance(self.chatter_dim, bool) or not int(self.chatter_dim) == self.chatter_dim >= -1:
             raise InputError("chatter_dim must be a gain index (0-based) or -1 (off)")
         if not (int(self.chatter_every) == self.chatter_every >= 1 and self.chatter_step > 0
-                and self.chatter_threshold > 0):
-            raise InputError("chatter_every must be a positive integer, chatter_step and chatter_threshold positive")
+                and self.chatter_threshold > 0 and self.chatter_floor >= 0):
+            raise InputError("chatter_every must be a positive integer, chatter_step and chatter_threshold positive, "
+                             "chatter_floor non-negative")
+
         if not (0 < self.tr_min <= self.tr_init <= self.tr_max):
             raise InputError("trust region sizes must satisfy 0 < tr_min <= tr_init <= tr_max")
 
@@ -103,6 +106,7 @@ def _check_kind(name: str, annotation: str, value: Any) -> None:
 
 _CHOICES: dict[str, tuple[str, ...]] = {
     "rule": ("ucb", "safeopt"),
+    "chatter_symptom": SYMPTOMS,
     "recommend": ("mean", "lcb"),
     "safety_kernel": ("same", "se"),
     "dims": ("all", "forest", "permutation"),

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ksbo_mav.opt.acquisition import BoundaryExpansion
-from ksbo_mav.opt import lines, phases, recommend, region, scale
+from ksbo_mav.opt import lines, phases, recommend, region, scale, symptom_rule
 from ksbo_mav.opt.calibration import BetaCalibration
 from ksbo_mav.opt.candidates import refine
 from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
@@ -266,9 +266,12 @@ class SafeBO:
 
     def feasible(self, Z: np.ndarray, lcb: np.ndarray) -> np.ndarray:
         """(m,) bool: Z (m, d) with lower bounds ``lcb`` (m,) certified (LCB ≥ p_min, no unsafe or failed trial
-        nearby); with a trust region also inside it, and — once trials have aborted, or while :attr:`relaxed` —
+        nearby, not below the symptom rule's floor: opt.symptom_rule); with a trust region also inside it, and — once trials have aborted, or while :attr:`relaxed` —
         predicted by the failure model to abort and crash rarely enough (censored aborts steer the search)."""
         ok = lcb >= self.p_min
+        floor = symptom_rule.symptom_floor(self)
+        if floor is not None:
+            ok &= Z[:, self.config.chatter_dim] >= floor
         if ok.any():
             ok[ok] = ~region.excluded(self, Z[ok])
         if self.tr is not None and ok.any():
@@ -298,8 +301,8 @@ class SafeBO:
             line = lines.coordinate_proposal(self)
             if line is not None:
                 return line
-        if lines.symptom_turn(self):
-            line = lines.symptom_proposal(self)
+        if symptom_rule.symptom_turn(self):
+            line = symptom_rule.symptom_proposal(self)
             if line is not None:
                 return line
         mu_d, sd_d, lcb_d, ucb_d = self.bounds(self.X)
