@@ -146,9 +146,20 @@ class SimObjective:
         init = random_initial_states(1, self.rng, self.episode) if init is None else np.atleast_2d(init)
         r = self._simulate(X, init, self.episode)
         self.n_episodes += 1
+        return Evaluation(float(score_rollout(r, self.score_config).P[0]), r.outcomes[0], self.symptoms(r)[0])
+
+    def symptoms(self, rollout: Rollout) -> list[dict[str, float]]:
+        """What each episode of ``rollout`` showed beyond its score (:func:`ksbo_mav.symptoms.rate_symptoms` of
+        the pitch rate over the scored lap), one dict per episode."""
         lo, hi = self.score_config.window
-        symptoms = rate_symptoms(r.states[0, lo + 1 : hi + 1, 5])
-        return Evaluation(float(score_rollout(r, self.score_config).P[0]), r.outcomes[0], symptoms)
+        return [rate_symptoms(rollout.states[k, lo + 1 : hi + 1, 5]) for k in range(rollout.states.shape[0])]
+
+    def rollout(self, X: np.ndarray, init: np.ndarray) -> Rollout:
+        """The episodes (trajectories, outcomes) of gains X (n, d) from ``init`` (n, 6), in one batch: for
+        diagnostics that need more than the scores (scripts/diag_symptom_slices.py)."""
+        X = np.atleast_2d(self.profile.check_gains(np.asarray(X, dtype=float), within_box=False))
+        self.n_episodes += X.shape[0]
+        return self._simulate(X, np.atleast_2d(init), self.episode)
 
     def stress(self, x: np.ndarray) -> Any:
         """One episode of gains ``x`` (d,) from the hardest start (:func:`ksbo_sim.episode.stress_initial_state`),

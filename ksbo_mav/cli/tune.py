@@ -44,7 +44,9 @@ def add_parser(subparsers) -> None:
                    help="optimiser option (repeatable; VALUE is JSON), e.g. --option max_aborts=4. The copter "
                         "profiles ([safety] backup_covers_trials) give ksbo-adaptive backup_beta=0.5: it may fly "
                         "uncertified gains the monitor's backup covers; --option backup_beta=null turns that off "
-                        "(BENCHMARKS.md, issue 13)")
+                        "(BENCHMARKS.md, issue 13). On the planar vehicle --option chatter_dim=ATT_PIT_D (a gain "
+                        "named as the profile names it) steps the pitch D gain down while the flights show its limit "
+                        "cycle (issue 13 items AL, AM)")
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
     p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end (not if a "
                    "confirmation flight of them aborted, crashed or scored P < 0: then the baseline is restored and "

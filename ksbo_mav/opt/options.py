@@ -182,6 +182,10 @@ METHOD_DEFAULTS: dict[str, dict[str, Any]] = {
     # Item AL: a step down the pitch D gain while the incumbent's pitch rate chatters (chatter_dim 8 on the planar
     # profile): tuning seeds 100-129 median / mean 0.902 / 0.819 -> 0.911 / 0.861, aborts 43 -> 58; on the suite
     # pitch inertia x0.5 0.418 -> 0.905, but more crashes on mass +30 % and noise x3: an option.
+    # Item AM: the pitch_line symptom (noise makes no line) and steps of 0.025: tuning seeds 100-129 median / mean
+    # 0.902 / 0.819 -> 0.913 / 0.862 (13 wins, 10 losses, p 0.41), aborts 43 -> 53, 0 crashes; on the suite mass +30 %
+    # back to 1 crash, pitch inertia x0.5 up, motor lag down (0.869 -> 0.731): still an option
+    # (--option chatter_dim=ATT_PIT_D). A floor under the D gain (chatter_floor 0.05) measured and left off.
     "ksbo": {"max_order": 4, "beta": 5.0, "reselect_every": 10, "safety_lengthscale": 0.06, "unsafe_scale_shrink": 0.7,
              "failure_scale_shrink": 0.7},
     # Issue 13: ksbo with the learned safety scale, trust region, abort budget, re-flown recommendation and

@@ -11,9 +11,11 @@ So, with ``chatter_dim`` set:
 
 * **step down** — every ``chatter_every``-th BO iteration, while the incumbent's flights cycle, query the lowest
   certified value of that gain on the line through the incumbent, at most ``chatter_step`` down;
-* **floor** — once any flight has cycled, no query sets that gain more than ``chatter_floor`` below the lowest
-  value a cycling flight had: the optimiser may settle just below the cycle's onset but not wander into the weakly
-  damped gains the score cannot see coming (``chatter_floor`` 0 = no floor).
+* **floor** (``chatter_floor`` > 0; off by default) — once any flight has cycled, no query sets that gain more than
+  ``chatter_floor`` below the lowest value a cycling flight had: the optimiser may settle just below the cycle's
+  onset but not wander into the weakly damped gains the score cannot see coming. Measured (item AM): with steps of
+  0.025 mass +30 % crashed in 1 of 10 seeds with or without a floor of 0.05, and the floor cost on the nominal
+  tuning seeds (mean E[P] 0.862 → 0.839, 1 crash), so it stays off.
 """
 
 from __future__ import annotations
