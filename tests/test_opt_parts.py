@@ -175,7 +175,8 @@ def test_line_fraction_tells_a_limit_cycle_from_noise_and_from_the_manoeuvre() -
     assert chatter_ratio(noise) > 1.0  # the ratio alone would call the noise a cycle
     assert line_fraction(slow + cycle + 0.5 * noise) > 0.5 and line_fraction(slow + 0.1 * cycle) < 0.5
     assert np.isnan(line_fraction(np.ones(100))) and np.isnan(line_fraction(np.full(20, 0.1)))
-    assert set(rate_symptoms(slow + cycle)) == {"pitch_line", "pitch_chatter"} and rate_symptoms(np.full(5, np.nan)) == {}
+    assert set(rate_symptoms(slow + cycle)) == {"pitch_line", "pitch_chatter"}
+    assert rate_symptoms(np.full(5, np.nan)) == {}
 
 
 def test_a_chattering_incumbent_steps_its_d_gain_down_and_only_that_gain() -> None:

@@ -266,8 +266,9 @@ class SafeBO:
 
     def feasible(self, Z: np.ndarray, lcb: np.ndarray) -> np.ndarray:
         """(m,) bool: Z (m, d) with lower bounds ``lcb`` (m,) certified (LCB ≥ p_min, no unsafe or failed trial
-        nearby, not below the symptom rule's floor: opt.symptom_rule); with a trust region also inside it, and — once trials have aborted, or while :attr:`relaxed` —
-        predicted by the failure model to abort and crash rarely enough (censored aborts steer the search)."""
+        nearby, not below the symptom rule's floor: opt.symptom_rule); with a trust region also inside it, and — once
+        trials have aborted, or while :attr:`relaxed` — predicted by the failure model to abort and crash rarely
+        enough (censored aborts steer the search)."""
         ok = lcb >= self.p_min
         floor = symptom_rule.symptom_floor(self)
         if floor is not None:
