@@ -142,10 +142,8 @@ class SimObjective:
         random initial velocity unless ``init`` (6,) is given."""
         from ksbo_mav.opt.outcome import Evaluation
 
-        X = np.atleast_2d(self.profile.check_gains(np.asarray(x, dtype=float), within_box=False))
         init = random_initial_states(1, self.rng, self.episode) if init is None else np.atleast_2d(init)
-        r = self._simulate(X, init, self.episode)
-        self.n_episodes += 1
+        r = self.rollout(np.atleast_2d(x), init)
         return Evaluation(float(score_rollout(r, self.score_config).P[0]), r.outcomes[0], self.symptoms(r)[0])
 
     def symptoms(self, rollout: Rollout) -> list[dict[str, float]]:
@@ -156,7 +154,7 @@ class SimObjective:
 
     def rollout(self, X: np.ndarray, init: np.ndarray) -> Rollout:
         """The episodes (trajectories, outcomes) of gains X (n, d) from ``init`` (n, 6), in one batch: for
-        diagnostics that need more than the scores (scripts/diag_symptom_slices.py)."""
+        :meth:`trial` and diagnostics that need more than the scores (scripts/diag_symptom_slices.py)."""
         X = np.atleast_2d(self.profile.check_gains(np.asarray(X, dtype=float), within_box=False))
         self.n_episodes += X.shape[0]
         return self._simulate(X, np.atleast_2d(init), self.episode)

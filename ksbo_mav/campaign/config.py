@@ -117,8 +117,8 @@ def gain_option_indices(user: dict[str, Any], names: list[str] | None) -> dict[s
             continue
         if names is None:
             out[key] = 0
-        elif v.upper() in [n.upper() for n in names]:
-            out[key] = [n.upper() for n in names].index(v.upper())
+        elif v.upper() in (upper := [n.upper() for n in names]):
+            out[key] = upper.index(v.upper())
         else:
             raise InputError(f"--option {key}={v}: {v!r} is not a tuned gain of this profile; "
                              f"choose one of {', '.join(names)} (or its 0-based index)")

@@ -8,9 +8,9 @@ from numbers import Real
 from typing import Any, Mapping
 
 from ksbo_mav.errors import InputError
-from ksbo_mav.symptoms import SYMPTOMS
 from ksbo_mav.opt.config import (AdaptiveConfig, BaselineConfig, ModelConfig, SafeBOConfig, SelectionConfig,
                                  part)
+from ksbo_mav.symptoms import SYMPTOMS
 
 
 @dataclass(frozen=True)
@@ -75,7 +75,6 @@ class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, Safe
                 and self.chatter_threshold > 0 and self.chatter_floor >= 0):
             raise InputError("chatter_every must be a positive integer, chatter_step and chatter_threshold positive, "
                              "chatter_floor non-negative")
-
         if not (0 < self.tr_min <= self.tr_init <= self.tr_max):
             raise InputError("trust region sizes must satisfy 0 < tr_min <= tr_init <= tr_max")
 
