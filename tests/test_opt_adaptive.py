@@ -752,6 +752,36 @@ def test_refly_stress_screens_candidates_from_the_hardest_start_then_reflies_tho
     assert [p["kind"] for p in r2.info["proposals"]].count("refly") == 4
 
 
+def test_stress_trials_fly_every_search_trial_from_the_hardest_start() -> None:
+    """``stress_trials``: each trial of the search goes to ``fun.stress`` (the gains the optimiser proposed), the
+    re-fly phase's re-flights stay ordinary flights; off by default, and an objective without ``stress`` flies as
+    usual."""
+
+    class Counted:
+        def __init__(self) -> None:
+            self.f, self.calls, self.stress_calls = bump(0.2), 0, 0
+
+        def __call__(self, x: np.ndarray) -> float:
+            self.calls += 1
+            return self.f(x)
+
+        def stress(self, x: np.ndarray) -> float:
+            self.stress_calls += 1
+            return self.f(x)
+
+    kw = dict(budget=40, method="ksbo", seed=0, refly_last=4, refly_top=2, orders=(1,), n_local=128, y_max=1.0)
+    fun = Counted()
+    r = ksbo_mav.optimize(fun, np.array([0.5, 0.4]), BOX2, stress_trials=True, **kw)
+    kinds = [p["kind"] for p in r.info["proposals"]]
+    assert kinds[-4:] == ["refly"] * 4 and "refly" not in kinds[:-4]
+    assert fun.stress_calls == len(kinds) - 4 and fun.calls == 4 + 1  # + the start's own flight
+    plain = Counted()
+    ksbo_mav.optimize(plain, np.array([0.5, 0.4]), BOX2, **kw)
+    assert plain.stress_calls == 0 and plain.calls == len(kinds) + 1
+    r2 = ksbo_mav.optimize(bump(0.2), np.array([0.5, 0.4]), BOX2, stress_trials=True, **kw)
+    assert len(r2.info["proposals"]) == len(kinds)
+
+
 def test_safety_scale_floor_holds_the_learnt_scale_up_until_a_failure_shrinks_it() -> None:
     """``safety_scale_floor``: the learnt safety lengthscales start at the floor and never fall below it while no
     trial failed (the data's extent cap and short ML-II scales included); a failure at new gains still shrinks them

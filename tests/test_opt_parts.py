@@ -248,3 +248,47 @@ def test_the_symptom_rule_keeps_queries_above_a_floor_below_the_lowest_cycling_g
         options_for("ksbo", {"chatter_floor": -0.1})
     with pytest.raises(InputError, match="chatter_dim"):
         options_for("ksbo", {"chatter_dim": -2})
+
+
+def test_lipschitz_bound_takes_each_flown_point_at_its_worst_flight() -> None:
+    """LoSBO's bound (opt.lipschitz): max over flown points of (smallest value there − E − L·distance)."""
+    from ksbo_mav.opt.lipschitz import lipschitz_lcb
+
+    X = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.0]])
+    y = np.array([0.5, 0.9, -0.4])  # the second point also failed once: it certifies nothing
+    Z = np.array([[0.0, 0.1], [0.9, 0.0], [0.5, 0.0]])
+    got = lipschitz_lcb(X, y, Z, L=2.0, noise=0.1)
+    np.testing.assert_allclose(got, [0.5 - 0.1 - 0.2, max(0.5 - 0.1 - 1.8, -0.4 - 0.1 - 0.2), 0.5 - 0.1 - 1.0])
+    assert np.all(lipschitz_lcb(X[:0], y[:0], Z, 2.0, 0.1) == -np.inf)
+
+
+def test_lipschitz_safety_never_queries_below_p_min_when_the_constant_holds() -> None:
+    """With the ``lipschitz`` option the state machine certifies by the data's Lipschitz bound: on a function whose
+    true constant is below the configured L, every query is safe, and the safe set still grows towards the optimum
+    (which lies outside the GP's reach from the start at a fixed short lengthscale). Refused: L ≤ 0."""
+    from ksbo_mav.opt.config import SafeBOConfig
+    from ksbo_mav.opt.lipschitz import lipschitz_lcb
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.safe_bo import SafeBO
+
+    target = np.array([0.8, 0.7])
+
+    def f(x: np.ndarray) -> float:  # Lipschitz constant 0.8; unsafe in the corner at the origin
+        return float(0.8 - 0.8 * np.linalg.norm(x - target))
+
+    model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.3, signal_std=1.0, noise_std=0.01), 2)
+    bo = SafeBO(model, SafeBOConfig(lipschitz=1.0, lipschitz_noise=0.0, n_local=256, n_global=0, expansion_iters=5,
+                                    exploit_last=0), np.ones(2, bool), np.random.default_rng(1), budget=40)
+    x0 = np.array([0.1, 0.1])
+    bo.fit(x0[None, :], np.array([f(x0)]))
+    values = []
+    for _ in range(40):
+        p = bo.propose()
+        assert p.kind != "fallback"
+        assert p.lcb >= bo.p_min and np.isclose(p.lcb, lipschitz_lcb(bo.X, bo.y, p.x[None, :], 1.0, 0.0)[0])
+        values.append(f(p.x))
+        bo.observe(p.x, values[-1])
+    assert min(values) >= bo.p_min
+    assert f(x0) < 0.07 and max(values) > 0.6  # it climbed from the edge of safety (the optimum is 0.8)
+    with pytest.raises(InputError, match="lipschitz"):
+        options_for("ksbo", {"lipschitz": 0.0})

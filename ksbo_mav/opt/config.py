@@ -67,6 +67,10 @@ class SafeBOConfig:
         chatter_floor: with ``chatter_dim``, once a flight has cycled no query sets that gain more than this (unit
             cube) below the lowest value a cycling flight had (opt.symptom_rule); 0 = no floor. Item AM: 0.05 did
             not cut mass +30 %'s crashes beyond what the 0.025 steps did and cost on the nominal tuning seeds.
+        lipschitz: None = certify with the GP's lower bound. A number L: certify with LoSBO's Lipschitz bound instead,
+            ``max_i (y_i − lipschitz_noise − L‖x − x_i‖) ≥ p_min`` over the flown points (unit cube, Euclidean;
+            y_i the smallest value flown at x_i; opt.lipschitz). The GP still chooses the query inside that set.
+        lipschitz_noise: the noise bound E of ``lipschitz`` (the objective's units).
     """
 
     beta: float = 4.0
@@ -107,6 +111,8 @@ class SafeBOConfig:
     chatter_symptom: str = "pitch_line"
     chatter_floor: float = 0.0
     chatter_step: float = 0.025
+    lipschitz: float | None = None
+    lipschitz_noise: float = 0.02
 
 
 @dataclass(frozen=True)
@@ -144,6 +150,10 @@ class AdaptiveConfig:
             phase first flies each candidate once from it, and only candidates that pass are re-flown and can be
             recommended (opt.stress): gains that fail from part of the starts fail there first. An objective
             without ``stress`` (the copters) re-flies as usual. On in ``ksbo-adaptive`` (opt.options).
+        stress_trials: every trial of the search (not the re-fly phase's re-flights) flies from the objective's
+            stress start, where it has one: the GPs then see each gain set's score from one fixed, hard start (a
+            function of the gains alone, without the bistable scatter of random starts), and gains that fail from
+            part of the starts fail there first. Off by default (BENCHMARKS.md, issue 13, item AN).
         reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
             by marginal likelihood (Algorithm 1 stays the first selection); 0 = never (the paper's once-only
             selection). ``ksbo`` and ``ksbo-adaptive`` default to 10 (opt.options).
@@ -187,6 +197,7 @@ class AdaptiveConfig:
     refly_last: int = 0
     refly_top: int = 3
     refly_stress: bool = False
+    stress_trials: bool = False
     reselect_every: int = 0
     exclusion_growth: float = 1.0
     exclusion_max: float = 0.2

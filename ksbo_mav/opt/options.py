@@ -75,6 +75,8 @@ class Options(BaselineConfig, SelectionConfig, ModelConfig, AdaptiveConfig, Safe
                 and self.chatter_threshold > 0 and self.chatter_floor >= 0):
             raise InputError("chatter_every must be a positive integer, chatter_step and chatter_threshold positive, "
                              "chatter_floor non-negative")
+        if self.lipschitz is not None and not (self.lipschitz > 0 and self.lipschitz_noise >= 0):
+            raise InputError("lipschitz must be positive (or None: the GP certifies) and lipschitz_noise non-negative")
         if not (0 < self.tr_min <= self.tr_init <= self.tr_max):
             raise InputError("trust region sizes must satisfy 0 < tr_min <= tr_init <= tr_max")
 

@@ -10,6 +10,8 @@
   fails is not re-flown again. Bistable gains that flew well once rarely survive this. With ``refly_stress`` (and
   an objective with ``fun.stress``) each candidate first flies once from the hardest start, and only those that
   pass are re-flown and can be recommended (opt.stress; proposals of kind "stress").
+* ``stress_trials``: every trial of the search flies from that hardest start as well (the re-fly phase's
+  re-flights keep the objective's own starts).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
     log: list[dict] = []
     n_refly = refly_count(bo)
     stress = bo.adaptive.refly_stress and problem.can_stress
+    stress_trials = bo.adaptive.stress_trials and problem.can_stress  # every search trial from the hard start
     cap = bo.adaptive.max_aborts
     while problem.remaining > 0 and (max_iters is None or bo.iteration < max_iters):
         if cap is not None and bo.aborts >= cap:
@@ -46,12 +49,13 @@ def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
             if bo.refly_set is None:
                 bo.refly_set = screen_order(bo, refly_candidates(bo)) if stress else refly_candidates(bo)
             k = n_refly - problem.remaining
-            i, hard = next_flight(bo, k) if stress else (next_refly(bo, k), False)
-            p = Proposal(bo.X[i].copy(), "stress" if hard else "refly", float("nan"), float("nan"), float("nan"))
+            i, screen = next_flight(bo, k) if stress else (next_refly(bo, k), False)
+            p = Proposal(bo.X[i].copy(), "stress" if screen else "refly", float("nan"), float("nan"), float("nan"))
+            hard = screen  # the screen's flights from the hardest start, re-flights from the objective's own
         else:
-            p, hard = bo.propose(), False
+            p, screen, hard = bo.propose(), False, stress_trials
         ev, y = problem.evaluate_full(p.x, stress=hard)
-        if hard:
+        if screen:
             record_stress(bo, i, ev.outcome is Outcome.COMPLETE and y >= bo.p_min)
         bo.observe(p.x, y, ev.outcome)
         log.append({"kind": p.kind, "mu": p.mu, "sd": p.sd, "lcb": p.lcb, "y": y, "outcome": ev.outcome.value})

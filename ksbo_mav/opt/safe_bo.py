@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ksbo_mav.opt.acquisition import BoundaryExpansion
-from ksbo_mav.opt import lines, phases, recommend, region, scale, symptom_rule
+from ksbo_mav.opt import lines, lipschitz, phases, recommend, region, scale, symptom_rule
 from ksbo_mav.opt.calibration import BetaCalibration
 from ksbo_mav.opt.candidates import refine
 from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
@@ -240,7 +240,8 @@ class SafeBO:
         """Posterior mean, marginal std, LCB (safety β) and UCB (acquisition β) at Xc (m, d); four (m,) arrays.
 
         With a ``safety_model`` the LCB is the smaller of both models' bounds (a point must be certified by both);
-        mean, std and UCB are the main model's. While :attr:`relaxed`, the LCB uses ``backup_beta``.
+        mean, std and UCB are the main model's. While :attr:`relaxed`, the LCB uses ``backup_beta``. With the
+        ``lipschitz`` option the LCB is LoSBO's bound on the data instead (opt.lipschitz).
         """
         return self._bounds_parts(Xc)[:4]
 
@@ -253,6 +254,8 @@ class SafeBO:
         beta = self.adaptive.backup_beta if self.relaxed else self.beta
         mu_c, sd_c = self._capped(Xc, (mu, sd))
         lcb = np.min(mu_c - beta * sd_c, axis=0)
+        if self.config.lipschitz is not None and not self.relaxed:
+            lcb = lipschitz.lower_bound(self, Xc)  # LoSBO: the data's Lipschitz bound certifies, not the GP
         if self.acq_model is not None:
             mu_a, sd_a = self.acq_model.predict(Xc)
             if self.config.y_max is not None:
