@@ -29,6 +29,7 @@ def _load(name: str):
                                               ("diag_monitor_backup.py", "--n"),
                                               ("diag_gain_slices.py", "--plot"),
                                               ("diag_symptom_slices.py", "--plot"),
+                                              ("diag_lipschitz_aborts.py", "--starts"),
                                               ("bench_tune_campaign.py", "--write")])
 def test_bench_scripts_start(script, flag):
     r = subprocess.run([sys.executable, str(SCRIPTS / script), "--help"], capture_output=True, text=True,
