@@ -264,8 +264,8 @@ def test_lipschitz_bound_takes_each_flown_point_at_its_worst_flight() -> None:
 
 def test_lipschitz_safety_never_queries_below_p_min_when_the_constant_holds() -> None:
     """With the ``lipschitz`` option the state machine certifies by the data's Lipschitz bound: on a function whose
-    true constant is below the configured L, every query is safe, and the safe set still grows towards the optimum
-    (which lies outside the GP's reach from the start at a fixed short lengthscale). Refused: L ≤ 0."""
+    true constant is below the configured L, every query is safe and carries exactly that bound as its LCB, and the
+    safe set still grows from the edge of safety towards the optimum. Refused: L ≤ 0."""
     from ksbo_mav.opt.config import SafeBOConfig
     from ksbo_mav.opt.lipschitz import lipschitz_lcb
     from ksbo_mav.opt.model import ModelSpec, SafetyModel

@@ -253,9 +253,10 @@ class SafeBO:
         b_ucb = self.config.beta if self.config.beta_ucb is None else self.config.beta_ucb
         beta = self.adaptive.backup_beta if self.relaxed else self.beta
         mu_c, sd_c = self._capped(Xc, (mu, sd))
-        lcb = np.min(mu_c - beta * sd_c, axis=0)
         if self.config.lipschitz is not None and not self.relaxed:
             lcb = lipschitz.lower_bound(self, Xc)  # LoSBO: the data's Lipschitz bound certifies, not the GP
+        else:
+            lcb = np.min(mu_c - beta * sd_c, axis=0)
         if self.acq_model is not None:
             mu_a, sd_a = self.acq_model.predict(Xc)
             if self.config.y_max is not None:
