@@ -17,7 +17,7 @@ from _bench_paired import paired_report, reflown_ep  # noqa: E402 - a sibling sc
 SECTION = "Adaptive safe BO over a plant suite (issue 13)"
 DATA = Path(__file__).resolve().parent.parent / "benchmarks" / "plants"
 RECORDS, NOTES, FROZEN = DATA / "records.jsonl", DATA / "notes.md", DATA / "tables-frozen-2026-12-01.md"
-#: End points of ``scripts/diag_safe_climb.py`` (a safe hill-climb from a0 with free flights), one JSON line per run.
+#: End points of ``scripts/diag/safe_climb.py`` (a safe hill-climb from a0 with free flights), one JSON line per run.
 CLIMBS = DATA / "safe-climb.jsonl"
 ORACLE = np.array([0.2367, 0.007699, 0.8752, 3.0, 0.000393, 2.662, 1.167e4, 88.22, 9777.0])
 #: SITL plants: a full `ksbo-mav tune` campaign from the ground on a fresh SITL (scripts/bench_sitl_campaign.py).
@@ -78,7 +78,7 @@ def best_known(recs: list[dict]) -> dict[str, tuple[float, str]]:
             P, _ = SimObjective(plant=plant).expected_outcomes(X)
             i = int(np.argmax(P))
             best[plant] = (float(P[i]), "nominal oracle gains re-flown (strict)" if i == 0 else
-                           f"safe climb from a0 (scripts/diag_safe_climb.py) seed {climbs[i - 1]['seed']}, re-flown")
+                           f"safe climb from a0 (scripts/diag/safe_climb.py) seed {climbs[i - 1]['seed']}, re-flown")
         for r in recs:
             if r["plant"] == plant and r["EP"] > best[plant][0]:
                 best[plant] = (r["EP"], f"{r['method']} {r['mode']} seed {r['seed']} recommendation")

@@ -17,17 +17,17 @@ SCRIPTS = ROOT / "scripts"
 
 
 def _load(name: str):
-    """A script module of scripts/ (not a package), imported by path."""
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
+    """A script module of scripts/ (not a package; ``diag/x`` for scripts/diag/x.py), imported by path."""
+    spec = importlib.util.spec_from_file_location(name.replace("/", "_"), SCRIPTS / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
 @pytest.mark.parametrize(("script", "flag"), [("bench_campaign.py", "--out"), ("bench_campaign_report.py", "--out"),
-                                              ("bench_plants.py", "report"), ("diag_oracle_ray.py", "--plot"),
-                                              ("diag_monitor_backup.py", "--n"),
-                                              ("diag_gain_slices.py", "--plot"),
+                                              ("bench_plants.py", "report"), ("diag/oracle_ray.py", "--plot"),
+                                              ("diag/monitor_backup.py", "--n"),
+                                              ("diag/gain_slices.py", "--plot"),
                                               ("diag_symptom_slices.py", "--plot"),
                                               ("diag_lipschitz_aborts.py", "--starts"),
                                               ("bench_tune_campaign.py", "--write")])
@@ -87,7 +87,7 @@ def test_best_known_counts_the_frozen_tables():
 
 
 def test_safe_climb_steps_only_to_gains_safe_from_every_start():
-    climb = _load("diag_safe_climb")
+    climb = _load("diag/safe_climb")
     c = climb.Climb("nominal", 0, lam=6, generations=3, n_random=2)
     rec = c.run(log=lambda s: None)
     assert rec["starts"] == 10 and rec["generations"] == 3 and rec["episodes"] == 10 * (1 + 3 * 6) + 200
@@ -112,7 +112,7 @@ def test_report_on_bad_records_is_a_one_line_error(tmp_path):
 def test_monitor_backup_diag_same_flights_fewer_crashes():
     """The diagnostic flies the same gains from the same starts under both monitors; the attitude-priority backup
     with the stopping-point fence turns most crashes of the old monitor into recovered aborts."""
-    diag = _load("diag_monitor_backup")
+    diag = _load("diag/monitor_backup")
     c = diag.plant_counts("nominal", 200, seed=3)
     assert c["before"].shape == c["now"].shape == (200,)
     assert (c["before"] == 2).sum() >= 3 * max(1, (c["now"] == 2).sum())
@@ -123,7 +123,7 @@ def test_monitor_backup_diag_same_flights_fewer_crashes():
 def test_gain_slices_show_the_pitch_d_cliff_of_pitch_inertia_x05():
     """diag_gain_slices (item AI): on pitch inertia ×0.5, lowering ATT_PIT_D alone from a0's 0.25 to 0.075 lifts
     E[P] from the plateau (≈ 0.3) to ≈ 0.9 with no failing start, and at 0 every start fails."""
-    slices = _load("diag_gain_slices").slices
+    slices = _load("diag/gain_slices").slices
     ep, fail = slices("iyy x0.5", [8], np.array([0.0, 0.075, 0.25]))[8]
     assert ep[1] > 0.8 and ep[2] < 0.4 and fail[1] == 0 == fail[2]
     assert fail[0] == 8 and ep[0] < 0

@@ -6,7 +6,7 @@ shows why every method stalls near 0.4 on pitch inertia ×0.5, the 40 ms delay a
 score is a plateau along the pitch D gain with a cliff to 0.9 at 0.05–0.1 of its range (iyy×0.5), and next to
 the cliff the gains fail.
 
-    python scripts/diag_gain_slices.py --plants "nominal,iyy x0.5" --dims 6,8 [--plot docs/figures/x.png]
+    python scripts/diag/gain_slices.py --plants "nominal,iyy x0.5" --dims 6,8 [--plot docs/figures/x.png]
 """
 
 from __future__ import annotations

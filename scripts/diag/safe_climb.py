@@ -13,8 +13,8 @@ yardstick for the safe optimisers, which must find such a path with one flight p
 It flies λ × 32 episodes per generation (48 × 32; a run stops after 40–80 generations, when σ < 0.003: about
 100 000 episodes, a minute or two on one core).
 
-    python scripts/diag_safe_climb.py --plants nominal --seeds 0-3
-    python scripts/diag_safe_climb.py --plants all --seeds 0-1 --out benchmarks/plants/safe-climb.jsonl
+    python scripts/diag/safe_climb.py --plants nominal --seeds 0-3
+    python scripts/diag/safe_climb.py --plants all --seeds 0-1 --out benchmarks/plants/safe-climb.jsonl
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # scripts/: bench_plants
 from bench_plants import _seeds  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / "benchmarks" / "plants" / "safe-climb.jsonl"

@@ -13,7 +13,7 @@ Printed per plant: complete / aborted / crashed under each monitor, and the comp
 ``--why``: for each monitor's crashes, what tripped it, which environment bound ended the flight
 and how many control steps (50 Hz) lay between the trip and the crash.
 
-    python scripts/diag_monitor_backup.py --n 1500 [--why]
+    python scripts/diag/monitor_backup.py --n 1500 [--why]
 """
 
 from __future__ import annotations

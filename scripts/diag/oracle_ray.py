@@ -6,7 +6,7 @@ initial conditions, strict (the plant's own score, no monitor). Printed per seed
 before its first drop (a point more than 0.1 below the recommendation: some start fails there), how far from the
 recommendation it lies and where the drop is. ``--plot`` draws the segments.
 
-    python scripts/diag_oracle_ray.py --method ksbo --mode monitor --plot docs/figures/plants_oracle_ray.png
+    python scripts/diag/oracle_ray.py --method ksbo --mode monitor --plot docs/figures/plants_oracle_ray.png
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # scripts/: bench_plants
 from bench_plants import ORACLE, RECORDS  # noqa: E402
 
 DROP = 0.1
