@@ -1,4 +1,4 @@
-"""Helpers shared by the benchmark scripts: machine description and BENCHMARKS.md section updates."""
+"""Helpers shared by the benchmark scripts: machine description and the results file each benchmark writes."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import re
 import subprocess
 from pathlib import Path
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "BENCHMARKS.md"
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
 def machine() -> str:
@@ -28,13 +28,11 @@ def machine() -> str:
             f"{date}")
 
 
-def write_section(title: str, body: str) -> None:
-    """Replace (or append) the section '## {title}' of BENCHMARKS.md, leaving other sections untouched."""
-    text = BENCHMARKS.read_text() if BENCHMARKS.exists() else (
-        "# Benchmarks\n\nMeasured numbers only; each section names its machine and date and the script that "
-        "regenerates it.\n")
-    header = f"## {title}"
-    pattern = re.compile(rf"^{re.escape(header)}\n.*?(?=^## |\Z)", re.S | re.M)
-    block = f"{header}\n\n{body.strip()}\n\n"
-    text = pattern.sub(lambda _: block, text) if pattern.search(text) else text.rstrip() + "\n\n" + block
-    BENCHMARKS.write_text(text)
+def write_result(name: str, body: str) -> Path:
+    """Write ``body``, a benchmark's full output in Markdown (machine, date, command, tables), to
+    ``benchmarks/NAME/results.md``; ``scripts/benchmarks_page.py`` takes the headline for BENCHMARKS.md from it."""
+    path = BENCH / name / "results.md"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(body.strip() + "\n")
+    print(f"wrote {path}; `python scripts/benchmarks_page.py` puts its headline into BENCHMARKS.md")
+    return path

@@ -1,4 +1,4 @@
-"""Issue 13 benchmark report: the tables of ``scripts/bench_plants.py report`` from the run records (JSON lines),
+"""Plant-suite benchmark report: the tables of ``scripts/bench_plants.py report`` from the run records (JSON lines),
 the best E[P] known per plant (the records, the frozen tables of the lost records, a reference flown here) and the
 paired per-seed comparisons (``_bench_paired``). Split from ``bench_plants.py``, which flies the runs."""
 
@@ -14,9 +14,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _bench_paired import paired_report, reflown_ep  # noqa: E402 - a sibling script module
 
-SECTION = "Adaptive safe BO over a plant suite (issue 13)"
 DATA = Path(__file__).resolve().parent.parent / "benchmarks" / "plants"
-RECORDS, NOTES, FROZEN = DATA / "records.jsonl", DATA / "notes.md", DATA / "tables-frozen-2026-12-01.md"
+RECORDS, FROZEN = DATA / "records.jsonl", DATA / "tables-frozen-2026-12-01.md"
 #: End points of ``scripts/diag/safe_climb.py`` (a safe hill-climb from a0 with free flights), one JSON line per run.
 CLIMBS = DATA / "safe-climb.jsonl"
 ORACLE = np.array([0.2367, 0.007699, 0.8752, 3.0, 0.000393, 2.662, 1.167e4, 88.22, 9777.0])

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Safe BO benchmark campaign on the planar simulator (issue 5): methods × seeds × settings.
+"""Safe BO benchmark campaign on the planar simulator (the paper's comparison): methods × seeds × settings.
 
 Settings:
   paper    36-point uniform LHS prior over the whole box (flown in the simulator; its unsafe points are reported
@@ -10,8 +10,9 @@ Settings:
 Every run writes one JSON file (resumable: existing files are skipped) with the evaluations, the re-flown E[P]
 and J^Q of the recommendation over the 8 fixed initial conditions, unsafe counts and optimiser seconds. Runs go
 to 2 worker processes with BLAS pinned to one thread. Afterwards ``bench_campaign_report.py`` aggregates the runs
-into BENCHMARKS.md (section "## Safe BO campaign (issue 5)"; the hand-written observations live in the section
-after it and are never regenerated) and draws the figures; ``bench_campaign_overhead.py`` times one proposal.
+into OUT/summary.md (``scripts/benchmarks_page.py`` takes BENCHMARKS.md's headline from it; the hand-written
+observations live in benchmarks/notes/safe-bo-campaign.md) and draws the figures; ``bench_campaign_overhead.py``
+times one proposal.
 
     python scripts/bench_campaign.py --settings vehicle paper --seeds 10          # run (resumable), then report
     python scripts/bench_campaign.py --report                                      # tables + figures only
@@ -37,36 +38,37 @@ ALL_METHODS = ("ksbo", "standard", "safeopt", "linebo", "ucb", "ei", "random")
 VARIANTS: dict[str, tuple[str, dict]] = {
     "ksbo-234": ("ksbo", {"orders": (2, 3, 4)}),  # the paper's selected orders, no selection
     "ksbo-nosafetygp": ("ksbo", {"safety_kernel": "same"}),  # additive GP alone certifies safety
-    # Issue 4's dimension selection inside ksbo: random-forest-kept dims in the interaction orders, the dropped
+    # The paper's dimension selection inside ksbo: random-forest-kept dims in the interaction orders, the dropped
     # ones either held at their start value ("fixed") or kept only as first-order terms ("order1").
     "ksbo-dims-fixed": ("ksbo", {"dims": "forest", "dropped": "fixed"}),
     "ksbo-dims-order1": ("ksbo", {"dims": "forest", "dropped": "order1"}),
     # The library defaults before the last tuning round (safety GP lengthscale 0.07, no final exploitation,
     # candidates around any certified observation plus global Sobol points), and a faster-expanding version of
     # it (safety lengthscale 0.14): the speed/safety trade-off of the vehicle-safe goal.
-    # (A fixed scale: ksbo's shrink after P < 0 flights came later, issue 13 item X.)
+    # (A fixed scale: ksbo's shrink after P < 0 flights came later.)
     "ksbo-prev": ("ksbo", {"safety_lengthscale": 0.07, "exploit_last": 0, "explore_from": "all",
                            "unsafe_scale_shrink": 1.0}),
     "ksbo-fast": ("ksbo", {"safety_lengthscale": 0.14, "exploit_last": 0, "explore_from": "all",
                            "unsafe_scale_shrink": 1.0}),
-    # The paper's once-only kernel selection (ksbo re-selects by evidence every 10 iterations since issue 13).
+    # The paper's once-only kernel selection (ksbo now re-selects by evidence every 10 iterations).
     "ksbo-once": ("ksbo", {"reselect_every": 0}),
     # β calibrated on the run's one-step-ahead errors (opt.calibration): floor 4, widened after a flight far below
-    # its prediction (an option, not a default: BENCHMARKS.md, issue 13, item S).
+    # its prediction (an option, not a default; benchmarks/notes/plants.md).
     "ksbo-calib": ("ksbo", {"beta_min": 4.0}),
-    # The local safety GP's lengthscale of safeopt (0.07 instead of 0.05): reaches the basins of item U in the
-    # paper setting (BENCHMARKS.md, issue 13, item W; an option, not a default).
-    # Fixed local safety lengthscales (issue 13, item X): 0.05 is ksbo before item X, 0.06 and 0.07 were measured
+    # The local safety GP's lengthscale of safeopt (0.07 instead of 0.05): reaches the basins the learnt safety scale
+    # reaches in the paper setting (an option, not a default; benchmarks/notes/plants.md).
+    # Fixed local safety lengthscales: 0.05 is ksbo's before 2026-12-01, 0.06 and 0.07 were measured
     # for it; ksbo now has 0.06, shrunk ×0.7 after each P < 0 flight at new gains (0.07 with that shrink: below).
     "ksbo-sls07": ("ksbo", {"safety_lengthscale": 0.07, "unsafe_scale_shrink": 1.0}),
     "ksbo-sls06": ("ksbo", {"safety_lengthscale": 0.06, "unsafe_scale_shrink": 1.0}),
     "ksbo-sls05": ("ksbo", {"safety_lengthscale": 0.05, "unsafe_scale_shrink": 1.0}),
     "ksbo-sls07-shrink": ("ksbo", {"safety_lengthscale": 0.07, "unsafe_scale_shrink": 0.7}),
-    "ksbo-sls06-shrink": ("ksbo", {"safety_lengthscale": 0.06, "unsafe_scale_shrink": 0.7}),  # = ksbo since item X
+    "ksbo-sls06-shrink": ("ksbo", {"safety_lengthscale": 0.06, "unsafe_scale_shrink": 0.7}),  # = ksbo since 2026-12-01
 }
 ALL_NAMES = ALL_METHODS + tuple(VARIANTS)
 
-#: Method options used in the campaign (documented in BENCHMARKS.md); shared by all safe methods unless noted.
+#: Method options used in the campaign (quoted in benchmarks/campaign/summary.md); shared by all safe methods
+#: unless noted.
 #: P lies in [-1, 1] (so prior std 1 on the margin P - 0) and P <= 1 is known (y_max). Everything else is the
 #: library default (opt.options.Options): beta 4 / beta_ucb 2, additive lengthscale 0.1, SE safety GP 0.07;
 #: ksbo's own defaults (opt.options.METHOD_DEFAULTS): orders selected among 1..4 (max_order) and re-selected every 10
@@ -222,7 +224,8 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--local-radius", type=float, default=0.01)
     ap.add_argument("--report", action="store_true", help="only aggregate existing runs")
     ap.add_argument("--out", type=Path, default=OUT, help="directory of the per-run JSON files")
-    ap.add_argument("--no-bench-md", action="store_true", help="do not touch BENCHMARKS.md")
+    ap.add_argument("--no-bench-md", action="store_true",
+                    help="a side run: draw the figures beside the runs, not over docs/figures")
     return ap
 
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env python
-"""Report of the safe BO campaign (issue 5): aggregates the per-run JSON files of ``bench_campaign.py`` into
-BENCHMARKS.md (section "## Safe BO campaign (issue 5)") and draws the figures. The observations that interpret
-these numbers are hand-written in BENCHMARKS.md (the section after this one) and never regenerated.
+"""Report of the safe BO campaign (the paper's comparison on the planar task): aggregates the per-run JSON files of
+``bench_campaign.py`` into OUT/summary.md (benchmarks/campaign/summary.md by default; ``scripts/benchmarks_page.py``
+takes BENCHMARKS.md's headline from it) and draws the figures. The observations that interpret these numbers are
+hand-written in benchmarks/notes/safe-bo-campaign.md and never regenerated.
 
     python scripts/bench_campaign_report.py [--out benchmarks/campaign] [--no-bench-md]
 """
@@ -14,13 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from _bench_common import machine, write_section
+from _bench_common import machine
 from bench_campaign import ALL_NAMES, METHOD_OPTIONS, ROOT, TUNING, VARIANTS, parser
 from bench_campaign_overhead import overhead
 
 FIG = ROOT / "docs" / "figures"
-SECTION = "## Safe BO campaign (issue 5)"
-OBSERVATIONS = "Safe BO campaign: observations (issue 5)"
+SECTION = "## Safe BO campaign"
+OBSERVATIONS = "benchmarks/notes/safe-bo-campaign.md"
 
 
 def load(setting: str, root: Path) -> dict[str, list[dict]]:
@@ -174,7 +175,7 @@ def report(args) -> None:
     lines = [SECTION, "",
              f"Machine: {machine()}. Scripts: `python scripts/bench_campaign.py` runs the campaign (2 worker "
              "processes, BLAS pinned to 1 thread; JSON per run in `benchmarks/campaign/`), then "
-             "`scripts/bench_campaign_report.py` writes this section (run it alone to re-report) with "
+             "`scripts/bench_campaign_report.py` writes this summary (run it alone to re-report) with "
              "`scripts/bench_campaign_overhead.py`.",
              "",
              "Re-flown E[P] / J^Q = recommendation re-flown over the 8 fixed initial conditions (median [min, max] "
@@ -182,7 +183,7 @@ def report(args) -> None:
              f"Options: `{json.dumps(METHOD_OPTIONS)}`; ksbo's library defaults differ from the other safe "
              "methods in `max_order` 4 (orders selected among 1..4, re-selected by evidence every 10 iterations) "
              "`beta` 5 and the local safety GP's lengthscale 0.06, shrunk ×0.7 after each P < 0 flight at new "
-             "gains (0.05 and fixed before 2026-12-01, issue 13 item X; `opt.options.METHOD_DEFAULTS`). "
+             "gains (0.05 and fixed before 2026-12-01; `opt.options.METHOD_DEFAULTS`). "
              "Variants: " + "; ".join(f"`{k}` = {m} with `{json.dumps(o)}`" for k, (m, o) in VARIANTS.items()) + ".",
              ""]
     for setting, title in (("vehicle", "Vehicle-safe setting: a0 + local prior, 100 flights in total"),
@@ -207,7 +208,7 @@ def report(args) -> None:
     ov = overhead()
     veh, pap = load("vehicle", args.out), load("paper", args.out)
     if veh.get("ksbo") or pap.get("ksbo"):
-        lines += ["Goals of issue 5 (computed from the runs above):", ""]
+        lines += ["Goals (computed from the runs above):", ""]
         for name in ("ksbo", "ksbo-234"):
             rs = veh.get(name, [])
             if rs:
@@ -231,15 +232,12 @@ def report(args) -> None:
             lines += ["Tuning seeds (vehicle-safe, seeds 100+, where the defaults were chosen; "
                       "`--seed-offset 100 --seeds 50 --out benchmarks/campaign-tuning`):", ""]
             lines += table("vehicle", tuning) + [""]
-        lines += [f"Observations (hand-written, not regenerated): *{OBSERVATIONS}* below.", ""]
+        lines += [f"Observations (hand-written, not regenerated): {OBSERVATIONS}.", ""]
     lines += [f"Optimiser overhead at 200 observations (9-D, orders 2, 3, 4, one proposal incl. candidates and "
               f"refinement, 1 thread): {ov['ksbo']:.3f} s; rank-one model update {ov['ksbo_update'] * 1e3:.1f} ms.",
               ""]
     (args.out / "summary.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
-    if args.no_bench_md:
-        return
-    write_section(SECTION.removeprefix("## "), "\n".join(lines[2:]))
 
 
 if __name__ == "__main__":

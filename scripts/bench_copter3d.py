@@ -1,4 +1,4 @@
-"""Benchmark of the JSBSim 3-D copter (issue 8): real-time factor and figure-8 tracking vs gains.
+"""Benchmark of the JSBSim 3-D copter: real-time factor and figure-8 tracking vs gains.
 
 * Real-time factor of a 40 s (2-lap) horizontal figure-8 flown in process (goal >= 20x), per personality, and
   the same flight over MAVLink in lockstep through `python -m ksbo_sim.mavlink --vehicle copter3d` (client and
@@ -6,7 +6,7 @@
 * Lap-2 RMS tracking error for default and varied gains, in the layout of the fact sheet's section 8 table
   (ArduCopter SITL 4.7.0-dev values quoted for comparison), for the x-y mission and the x-z variant.
 
-Writes the section "JSBSim 3-D copter (issue 8)" of BENCHMARKS.md.
+Writes benchmarks/copter3d/results.md.
 
     python scripts/bench_copter3d.py [--no-write] [--no-mavlink]
 """
@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import machine, write_section  # noqa: E402
+from _bench_common import machine, write_result  # noqa: E402
 
 from ksbo_sim.copter3d import Copter3D, Figure8H, fly  # noqa: E402
 from ksbo_sim.copter3d.mission import tracking_rms  # noqa: E402
@@ -120,7 +120,7 @@ def gain_table(second_axis: int) -> list[str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--no-write", action="store_true", help="print only, do not update BENCHMARKS.md")
+    ap.add_argument("--no-write", action="store_true", help="print only, do not write benchmarks/copter3d/results.md")
     ap.add_argument("--no-mavlink", action="store_true", help="skip the lockstep MAVLink flights")
     args = ap.parse_args()
 
@@ -129,7 +129,7 @@ def main() -> None:
              "with it). Script: `python scripts/bench_copter3d.py`.",
              "Vehicle: JSBSim 1.3.3 F450 (wheel files + linear rotor drag 0.3 /s, see `sim/copter3d/vehicle.py`), "
              "physics 2.5 ms, position/attitude/rate loops every physics step (400 Hz), 50 Hz setpoints.",
-             "Goal (issue 8): 3-D figure-8 in lockstep >= 20x real time.", "",
+             "Goal: 3-D figure-8 in lockstep >= 20x real time.", "",
              "| flight (40 s, 2 laps, x-y figure-8) | wall | real-time factor | lap-2 RMS (m) |", "|---|---|---|---|"]
     for pers in ("ardupilot", "ardupilot-legacy", "px4"):
         wall, cpu, rms = rtf_in_process(pers)
@@ -159,7 +159,7 @@ def main() -> None:
     body = "\n".join(lines)
     print(body)
     if not args.no_write:
-        write_section("JSBSim 3-D copter (issue 8)", body)
+        write_result("copter3d", body)
 
 
 if __name__ == "__main__":

@@ -1,10 +1,10 @@
-"""Benchmark of additive kernels and Nyström kernel selection (issue 4).
+"""Benchmark of additive kernels and Nyström kernel selection.
 
-Goals (issue 4): kernel matrix for 200 x 4096 points, 3 orders, <= 50 ms; C_ree for 9 orders x 1000 trials at
+Goals: kernel matrix for 200 x 4096 points, 3 orders, <= 50 ms; C_ree for 9 orders x 1000 trials at
 l = 36 <= 1 s. Also: the C_ree table on 36-point simulator priors (box and local designs), its stability over 10
 prior seeds, over mu and over the lengthscale, dimension-selection stability, a sanity check on synthetic
 functions of known interaction order, and a held-out check of which orders actually predict the simulator.
-BLAS is pinned to one thread. Writes the section "Kernel selection (issue 4)" of BENCHMARKS.md.
+BLAS is pinned to one thread. Writes benchmarks/kernel-selection/results.md.
 
     python scripts/bench_kernel_selection.py [--no-write] [--quick]
 """
@@ -22,7 +22,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import machine, write_section  # noqa: E402
+from _bench_common import machine, write_result  # noqa: E402
 
 from ksbo_mav.gp import AdditiveKernel, GaussianProcess  # noqa: E402
 from ksbo_mav.objective import SimObjective  # noqa: E402
@@ -31,7 +31,6 @@ from ksbo_mav.select import (  # noqa: E402
     cree_exact, lhs_design, order_kernel_matrices, select_dimensions_for_orders, select_orders,
 )
 
-TITLE = "Kernel selection (issue 4)"
 ORDERS = tuple(range(1, 10))
 
 
@@ -169,7 +168,8 @@ def heldout(design: str, seeds, n_test: int) -> list[str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--no-write", action="store_true", help="print only, do not update BENCHMARKS.md")
+    ap.add_argument("--no-write", action="store_true",
+                    help="print only, do not write benchmarks/kernel-selection/results.md")
     ap.add_argument("--quick", action="store_true", help="fewer seeds and repeats (smoke run)")
     args = ap.parse_args()
     n_seeds = 3 if args.quick else 10
@@ -240,7 +240,7 @@ def main() -> None:
     body = "\n".join(out)
     print(body)
     if not args.no_write:
-        write_section(TITLE, body)
+        write_result("kernel-selection", body)
 
 
 if __name__ == "__main__":

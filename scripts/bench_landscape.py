@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Where the good gains of the planar task lie, seen from the default gains a0 (issue 5's vehicle-safe goal).
+"""Where the good gains of the planar task lie, seen from the default gains a0 (how far safe BO from a0 must travel).
 
 Three measurements, all in the unit cube of the sim-planar profile and with the re-flown E[P] (8 fixed initial
 conditions) as the value of a gain vector:
@@ -12,7 +12,7 @@ conditions) as the value of a gain vector:
    random (neighbour, initial velocity) pairs — an upper bound for an optimiser that must not crash while it
    takes steps of that size.
 
-    python scripts/bench_landscape.py            # ~2 min on 2 cores; writes the BENCHMARKS.md section
+    python scripts/bench_landscape.py            # ~2 min on 2 cores; writes benchmarks/landscape/results.md
 """
 
 from __future__ import annotations
@@ -25,9 +25,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import machine, write_section  # noqa: E402
+from _bench_common import machine, write_result  # noqa: E402
 
-SECTION = "Planar task landscape around a0 (issue 5)"
 
 
 def es_max(E, u0: np.ndarray, rng: np.random.Generator, radius: float, iters: int = 60,
@@ -54,7 +53,7 @@ def es_max(E, u0: np.ndarray, rng: np.random.Generator, radius: float, iters: in
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--no-bench-md", action="store_true")
+    ap.add_argument("--no-write", action="store_true", help="print only, do not write benchmarks/landscape/results.md")
     args = ap.parse_args(argv)
     from threadpoolctl import threadpool_limits
 
@@ -114,8 +113,8 @@ def main(argv: list[str] | None = None) -> int:
     lines += ["", f"Run time {time.time() - t0:.0f} s."]
     body = "\n".join(lines)
     print(body)
-    if not args.no_bench_md:
-        write_section(SECTION, body)
+    if not args.no_write:
+        write_result("landscape", body)
     return 0
 
 

@@ -1,4 +1,4 @@
-"""Benchmark of flight-log scoring (issue 15): throughput and peak memory of `ksbo-mav score` on a ~500 MB
+"""Benchmark of flight-log scoring: throughput and peak memory of `ksbo-mav score` on a ~500 MB
 ArduPilot DataFlash log, against pymavlink's DFReader reading the same messages.
 
 The big log is real: one ArduCopter SITL flight (boot, GUIDED take-off, two figure-8 laps, LAND; flown by the plain
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import machine, write_section  # noqa: E402
+from _bench_common import machine, write_result  # noqa: E402
 
 DFREADER_SNIPPET = """
 import sys, time
@@ -116,7 +116,8 @@ def main() -> int:
     ap.add_argument("--size-mb", type=float, default=500.0)
     ap.add_argument("--bin", type=Path, default=None, help="source .BIN (default: fly one on ArduCopter SITL)")
     ap.add_argument("--no-dfreader", action="store_true", help="skip the pymavlink DFReader comparison")
-    ap.add_argument("--no-write", action="store_true", help="print only, leave BENCHMARKS.md alone")
+    ap.add_argument("--no-write", action="store_true",
+                    help="print only, do not write benchmarks/log-scoring/results.md")
     args = ap.parse_args()
     load0 = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="ksbo-bench-logs-") as d:
@@ -138,8 +139,8 @@ def main() -> int:
         rms = [s["figure8"]["score"]["rms_lap2_m"] for s in f8]
         print(f"ksbo-mav score: {wall:.1f} s, {size / 1e6 / wall:.1f} MB/s, peak RSS {rss:.0f} MB; "
               f"{len(segs)} segments, {len(f8)} figure-8s, lap-2 RMS {min(rms):.4f}..{max(rms):.4f} m", flush=True)
-        rows = [("`ksbo-mav score` (this issue), one SITL log", src_mb, w_small, rss_small, ""),
-                (f"`ksbo-mav score` (this issue), {copies} copies", size / 1e6, wall, rss,
+        rows = [("`ksbo-mav score`, one SITL log", src_mb, w_small, rss_small, ""),
+                (f"`ksbo-mav score`, {copies} copies", size / 1e6, wall, rss,
                  f"{len(segs)} segments, {len(f8)} figure-8s scored")]
         if not args.no_dfreader:
             try:
@@ -171,7 +172,7 @@ offset of every message before returning the first one; it only reads, it does n
 """
     print(body)
     if not args.no_write:
-        write_section("Flight-log scoring (issue 15)", body)
+        write_result("log-scoring", body)
     return 0
 
 

@@ -1,4 +1,4 @@
-"""Benchmark of the MAVLink simulator (issue 6): a 12 s figure-8 flown over real UDP in lockstep.
+"""Benchmark of the MAVLink simulator: a 12 s figure-8 flown over real UDP in lockstep.
 
 The simulator runs in its own process (`python -m ksbo_sim.mavlink --lockstep`); the client here is a lean
 pymavlink one (dialect parser on a plain UDP socket, no mavutil) that streams one pos+vel+acc setpoint per
@@ -23,7 +23,7 @@ import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import machine, write_section  # noqa: E402
+from _bench_common import machine, write_result  # noqa: E402
 
 from ksbo_mav.profiles import load_profile  # noqa: E402
 from ksbo_mav.scoring import score, score_rollout  # noqa: E402
@@ -99,7 +99,8 @@ def fly(cli: Lean, refs: np.ndarray, steps: int) -> tuple[float, int, np.ndarray
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5)
-    ap.add_argument("--no-write", action="store_true", help="print only, do not update BENCHMARKS.md")
+    ap.add_argument("--no-write", action="store_true",
+                    help="print only, do not write benchmarks/mavlink-sim/results.md")
     args = ap.parse_args()
     cfg = EpisodeConfig()
     refs = cfg.reference()
@@ -152,7 +153,7 @@ LOCAL_POSITION_NED + ATTITUDE + ACTUATOR_OUTPUT_STATUS (50 Hz each, plus 1 Hz/10
 """
     print(body)
     if not args.no_write:
-        write_section("MAVLink simulator (issue 6)", body)
+        write_result("mavlink-sim", body)
     return 0
 
 

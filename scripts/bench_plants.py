@@ -1,17 +1,18 @@
-"""Issue 13 benchmark: safe BO over the plant suite — the planar task (nominal + variants, with monitor or
+"""Benchmark: safe BO over the plant suite — the planar task (nominal + variants, with monitor or
 strict), the JSBSim copter in both personalities (in process) and the ArduCopter / PX4 SITLs (full campaigns).
 
 One process, BLAS pinned to one thread; each run appends one JSON line to ``--out`` (so partial results survive
-and runs can be added later), ``report`` turns the lines into the BENCHMARKS.md section. The records are kept in
-the repository (``benchmarks/plants/records.jsonl``, with the section's hand-written notes in ``notes.md``) so that
-any later session can regenerate the section; the tables of the runs before 2026-12-01, whose records were lost
-with a checkout, are appended verbatim from ``tables-frozen-2026-12-01.md``.
+and runs can be added later), ``report`` prints every setting's table from the lines. The records are kept in the
+repository (``benchmarks/plants/records.jsonl``; the history of what was tried is in ``benchmarks/notes/plants.md``)
+and ``scripts/benchmarks_page.py`` takes BENCHMARKS.md's headline tables from them; the tables of the runs before
+2026-12-01, whose records were lost with a checkout, are kept verbatim in ``tables-frozen-2026-12-01.md``.
 
     python scripts/bench_plants.py run --plants nominal,mass+30 --methods ksbo-adaptive --seeds 0-9 \
         --mode monitor --budget 100 --tag "what changed"
     python scripts/bench_plants.py run --plants copter3d-ardupilot,copter3d-px4 --budget 30 --seeds 0-2
     python scripts/bench_plants.py run --plants sitl-ardupilot,sitl-px4 --budget 30 --seeds 0   # slow, idle machine
-    python scripts/bench_plants.py report --write      # BENCHMARKS.md from notes.md + records.jsonl + frozen tables
+    python scripts/bench_plants.py report              # every setting's table, printed
+    python scripts/benchmarks_page.py                  # BENCHMARKS.md's headline from the records
 
 Per run: the recommendation is re-flown (planar: on the plant's 8 fixed initial conditions, in the run's mode, so a
 re-flight may abort or crash; copter: once, it is deterministic; SITL: 3 times, against 3 baseline re-flights)
@@ -34,7 +35,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _bench_plants_report import (  # noqa: E402,F401 - the report's names, also used by other scripts and tests
-    FROZEN, NOTES, ORACLE, RECORDS, SECTION, SITL_PLANTS, best_known, frozen_best, report)
+    FROZEN, ORACLE, RECORDS, SITL_PLANTS, best_known, frozen_best, report)
 
 
 def _seeds(text: str) -> list[int]:
@@ -142,6 +143,7 @@ def run_one(plant: str, method: str, seed: int, mode: str, budget: int, n_prior:
 
 
 def cmd_run(a: argparse.Namespace) -> None:
+    from _bench_common import machine
     import scipy.linalg  # noqa: F401 - load every BLAS first: threadpool_limits only pins libraries already loaded
     from threadpoolctl import threadpool_limits
 
@@ -155,6 +157,7 @@ def cmd_run(a: argparse.Namespace) -> None:
             for seed in _seeds(a.seeds):
                 rec = run_one(plant, method, seed, a.mode, a.budget, a.prior, _opt(a.opt or []), a.local_prior)
                 rec["tag"] = a.tag
+                rec["machine"] = machine()  # CPU, cores, versions, date: the page names them
                 with out.open("a") as fh:
                     fh.write(json.dumps(rec) + "\n")
                 print(f"{plant:11s} {method:14s} {a.mode:7s} s{seed:<3d} E[P] {rec['EP']:+.3f} "
@@ -165,7 +168,8 @@ def cmd_run(a: argparse.Namespace) -> None:
 
 def compact(value: Any, digits: int = 4) -> Any:
     """``value`` with every float rounded to ``digits`` decimals (nested lists and dicts): the per-iteration
-    calibration scores were 80 % of a record's size at full precision, and 4 decimals is more than item S used."""
+    calibration scores were 80 % of a record's size at full precision, and 4 decimals is more than their analysis
+    used."""
     if isinstance(value, float):
         return round(value, digits)
     if isinstance(value, list):
@@ -211,9 +215,6 @@ def main(argv: list[str] | None = None) -> None:
     p = sub.add_parser("report")
     p.add_argument("file", nargs="?", default=str(RECORDS))
     p.add_argument("--tag", default=None, help="only runs with this tag")
-    p.add_argument("--write", metavar="NOTES.md", nargs="?", const=str(NOTES), default=None,
-                   help="write the BENCHMARKS.md section: NOTES.md (default: the committed notes), the tables of "
-                        "FILE, then the frozen tables of the runs before 2026-12-01")
     a = ap.parse_args(argv)
     if a.cmd == "run":
         cmd_run(a)
@@ -221,18 +222,7 @@ def main(argv: list[str] | None = None) -> None:
         recs = load_records(Path(a.file))
         if a.tag is not None:
             recs = [x for x in recs if x.get("tag", "") == a.tag]
-        text = report(recs)
-        print(text)
-        if a.write:
-            from _bench_common import machine, write_section
-
-            notes = Path(a.write).read_text().strip()
-            frozen = FROZEN.read_text().split("-->", 1)[-1].strip()
-            cmd = "`python scripts/bench_plants.py run …` then `report --write` (records, notes: benchmarks/plants/)"
-            write_section(SECTION, f"{notes}\n\nMachine: {machine()}. Regenerate: {cmd}.\n\n{text}\n\n"
-                                   f"#### Runs before 2026-12-01 03:00 UTC (frozen tables: their records were lost)\n\n"
-                                   f"These tables were generated on 2026-12-01 02:01 UTC (same machine) from 2016 run "
-                                   f"records that lived outside the repository; they are kept verbatim.\n\n{frozen}")
+        print(report(recs))
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
-"""Benchmark of the planar simulator (issue 3): single-episode latency and batched throughput.
+"""Benchmark of the planar simulator: single-episode latency and batched throughput.
 
-Goals (issue 3): one 12 s episode <= 10 ms single-threaded; <= 0.1 ms per episode batched over >= 1000 gain
-vectors. BLAS is pinned to one thread. Writes the section "Planar simulator (issue 3)" of BENCHMARKS.md.
+Goals: one 12 s episode <= 10 ms single-threaded; <= 0.1 ms per episode batched over >= 1000 gain
+vectors. BLAS is pinned to one thread. Writes benchmarks/simulator/results.md.
 
     python scripts/bench_simulator.py [--no-write]
 """
@@ -18,7 +18,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import machine, write_section  # noqa: E402
+from _bench_common import machine, write_result  # noqa: E402
 
 from ksbo_mav.objective import SimObjective  # noqa: E402
 from ksbo_mav.profiles import load_profile  # noqa: E402
@@ -38,7 +38,7 @@ def best_of(fn, repeats: int) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--no-write", action="store_true", help="print only, do not update BENCHMARKS.md")
+    ap.add_argument("--no-write", action="store_true", help="print only, do not write benchmarks/simulator/results.md")
     args = ap.parse_args()
     prof = load_profile("sim-planar")
     rng = np.random.default_rng(0)
@@ -88,7 +88,7 @@ fact-sheet oracle {ep[2]:.4f} [0.966].
 """
     print(body)
     if not args.no_write:
-        write_section("Planar simulator (issue 3)", body)
+        write_result("simulator", body)
 
 
 if __name__ == "__main__":

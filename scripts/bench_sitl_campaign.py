@@ -1,4 +1,4 @@
-"""Benchmark: tuning campaigns on real autopilot SITLs from the ground (issue 12).
+"""Benchmark: tuning campaigns on real autopilot SITLs from the ground.
 
 For each stack (ArduCopter SITL at -s 10, PX4 SITL at -s 5) and seed: start a fresh SITL, run
 ``ksbo-mav tune --budget N --confirm 3`` from the ground (takeoff, trials, landing), then re-fly the baseline gains
@@ -28,7 +28,7 @@ import numpy as np
 os.environ.setdefault("MAVLINK20", "1")
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import machine, write_section  # noqa: E402
+from _bench_common import machine, write_result  # noqa: E402
 
 from ksbo_mav.mav.link import Endpoint  # noqa: E402
 from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402
@@ -130,7 +130,8 @@ def main() -> None:
     ap.add_argument("--method", default="ksbo", help="optimiser of the campaigns (default ksbo)")
     ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                     help="optimiser option passed to `ksbo-mav tune --option` (repeatable)")
-    ap.add_argument("--no-write", action="store_true", help="print only, do not update BENCHMARKS.md")
+    ap.add_argument("--no-write", action="store_true",
+                    help="print only, do not write benchmarks/sitl-campaign/results.md")
     args = ap.parse_args()
     rows = []
     for kind in args.stacks:
@@ -161,8 +162,7 @@ def main() -> None:
     body = "\n".join(lines)
     print(body)
     if not args.no_write:
-        opts = "".join(f", {o}" for o in args.option)
-        write_section(f"Real autopilots from the ground (issue 12), method {args.method}{opts}", body)
+        write_result("sitl-campaign", body)
 
 
 if __name__ == "__main__":

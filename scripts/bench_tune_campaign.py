@@ -2,12 +2,12 @@
 
 Reports wall time, the recommendation's P re-flown over MAVLink and its in-process re-flown E[P] over the fixed
 initial conditions (comparable with the in-process optimiser benchmark), unsafe and aborted trials, and whether
-every exit left the baseline verified on the vehicle. With ``--write`` (or ``--report``) it writes the section
-"MAVLink tuning campaign (issue 7)" of BENCHMARKS.md; a plain run only prints it (and keeps OUT/results.json), so
-a one-off experiment does not replace the committed section.
+every exit left the baseline verified on the vehicle. With ``--write`` (or ``--report``) it writes
+benchmarks/mavlink-campaign/results.md (``scripts/benchmarks_page.py`` takes BENCHMARKS.md's headline from it); a
+plain run only prints it (and keeps OUT/results.json), so a one-off experiment does not replace the committed one.
 
     python scripts/bench_tune_campaign.py [--seeds 0 1 2] [--budget 60] [--methods ksbo ksbo-adaptive]
-        [--out bench-runs/tune] [--write]
+        [--out bench-runs/tune] [--write]          # bench-runs/ is ignored by git: keep a result in benchmarks/
     python scripts/bench_tune_campaign.py --report A/results.json B/results.json   # combine runs split over processes
 """
 
@@ -24,7 +24,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _bench_common import machine, write_section  # noqa: E402
+from _bench_common import machine, write_result  # noqa: E402
 
 
 def run_one(seed: int, budget: int, out: Path, method: str, options: dict | None = None) -> dict:
@@ -48,7 +48,7 @@ def run_one(seed: int, budget: int, out: Path, method: str, options: dict | None
         wall = time.monotonic() - t
         restored_end = read_params(sim, prof.names) == baseline  # independent plain-pymavlink read
     records = [json.loads(line) for line in (d / "journal.jsonl").read_text().splitlines()]
-    sim_obj = SimObjective("sim-planar", monitor=True)  # re-flights judged as the suite judges them (issue 13)
+    sim_obj = SimObjective("sim-planar", monitor=True)  # re-flights judged as the plant suite judges them
     e_best = float(sim_obj.expected(np.array(s["best"]["x"]))[0])
     e_base = float(sim_obj.expected(np.array(s["baseline"]["x"]))[0])
     # The same optimiser, prior, bounds and seed in process (noisy random-initial-velocity episodes): the
@@ -77,7 +77,7 @@ def run_one(seed: int, budget: int, out: Path, method: str, options: dict | None
 
 
 def report(rows: list[dict], command: str) -> str:
-    """The BENCHMARKS.md section body for ``rows`` (one per campaign, any methods)."""
+    """The results page for ``rows`` (one per campaign, any methods): a summary per method, then every campaign."""
     table = ["| method | seed | trials | wall (s) | s/trial | baseline P | re-flown P (MAVLink) | E[P] best / baseline "
              "(in-process, 8 fixed ICs) | P < 0 | aborted | crashed | un-restored exits | orders | same optimiser "
              "in process: E[P] / P < 0 / aborted / crashed |",
@@ -87,15 +87,17 @@ def report(rows: list[dict], command: str) -> str:
                      f"{r['P_base']:.3f} | {r['P_confirm']:.3f} | {r['E_best']:.3f} / {r['E_base']:.3f} | "
                      f"{r['unsafe']} | {r['aborted']} | {r['crashed']} | {r['unrestored']} | {r['orders']} | "
                      f"{r['E_inproc']:.3f} / {r['unsafe_inproc']} / {r['aborted_inproc']} / {r['crashed_inproc']} |")
-    lines = []
+    lines = ["| method | seeds | median wall (s) | re-flown P (MAVLink), median | E[P] median [min, max] (baseline) | "
+             "P < 0 / aborted / crashed trials, total | same optimiser in process: E[P] median | un-restored exits |",
+             "|---|---|---|---|---|---|---|---|"]
     for method in dict.fromkeys(r["method"] for r in rows):
         mine = [r for r in rows if r["method"] == method]
         med = lambda k: float(np.median([r[k] for r in mine]))  # noqa: E731
         tot = lambda k: sum(int(r[k]) for r in mine)  # noqa: E731
-        lines.append(f"- {method} ({len(mine)} seeds): median wall {med('wall_s'):.0f} s, re-flown P "
-                     f"{med('P_confirm'):.3f}, E[P] {med('E_best'):.3f} (baseline {med('E_base'):.3f}); P < 0 / "
-                     f"aborted / crashed trials in total {tot('unsafe')} / {tot('aborted')} / {tot('crashed')}; same "
-                     f"optimiser in process E[P] {med('E_inproc'):.3f}; un-restored exits {tot('unrestored')}.")
+        e = [r["E_best"] for r in mine]
+        lines.append(f"| {method} | {len(mine)} | {med('wall_s'):.0f} | {med('P_confirm'):.3f} | {med('E_best'):.3f} "
+                     f"[{min(e):.3f}, {max(e):.3f}] ({med('E_base'):.3f}) | {tot('unsafe')} / {tot('aborted')} / "
+                     f"{tot('crashed')} | {med('E_inproc'):.3f} | {tot('unrestored')} |")
     return "\n".join([
         f"`{command}` — {machine()}.",
         "",
@@ -103,19 +105,20 @@ def report(rows: list[dict], command: str) -> str:
         "prior = 36 in-process simulator episodes around the baseline (nothing flown), then the optimiser's trials "
         "(trial 0 = baseline gains) and 1 confirmation flight of the recommendation; each trial = hover short of "
         "the start, write + verify gains, 1 s settle, an approach flown with the trial's gains that passes the "
-        "start at the trial's random velocity (up to 1 m/s, the task's initial conditions; since issue 13 item AE, "
-        "before it the trials started from a hover at the start), 2-lap figure-8 (600 setpoints at 50 Hz "
-        "simulated), restore + verify the baseline. The tuner's monitor uses the sim-planar profile's [safety] "
-        "limits, which are the in-process monitor's (since issue 13 item AD); a trial holds its end point with its "
+        "start at the trial's random velocity (up to 1 m/s, the task's initial conditions), 2-lap figure-8 (600 "
+        "setpoints at 50 Hz simulated), restore + verify the baseline. The tuner's monitor uses the sim-planar "
+        "profile's [safety] limits, which are the in-process monitor's; a trial holds its end point with its "
         "gains for 1 s more, monitored, and is watched for 1.5 s after the restore. 'Re-flown P (MAVLink)' is the "
         "confirmation flight (from its own random moving start); 'E[P]' re-flies the same gains in process over "
         "the 8 fixed initial conditions under the "
         "in-process monitor (an aborted re-flight scores below 0). 'Same optimiser in process': the same method, "
         "prior, bounds and seed on the in-process monitored simulator (random initial conditions).",
         "",
-        *table,
-        "",
         *lines,
+        "",
+        "Every campaign:",
+        "",
+        *table,
     ])
 
 
@@ -129,15 +132,16 @@ def main() -> None:
                     help="optimiser option for every campaign (VALUE is JSON), as `ksbo-mav tune --option`")
     ap.add_argument("--out", default="bench-runs/tune")
     ap.add_argument("--report", nargs="+", metavar="RESULTS_JSON",
-                    help="fly nothing: write the section from these results.json files (runs split over processes)")
-    ap.add_argument("--command", help="with --report: the command line to quote in the section")
+                    help="fly nothing: write benchmarks/mavlink-campaign/results.md from these results.json files "
+                         "(runs split over processes)")
+    ap.add_argument("--command", help="with --report: the command line to quote in the results")
     ap.add_argument("--write", action="store_true",
-                    help="write the section into BENCHMARKS.md after flying (default: print it only)")
+                    help="write benchmarks/mavlink-campaign/results.md after flying (default: print it only)")
     args = ap.parse_args()
     if args.report:
         rows = [r for f in args.report for r in json.loads(Path(f).read_text())]
         body = report(rows, args.command or "python scripts/bench_tune_campaign.py --report ...")
-        write_section("MAVLink tuning campaign (issue 7)", body)
+        write_result("mavlink-campaign", body)
         print(body)
         return
     from ksbo_mav.cli.tune import option_arg
@@ -160,11 +164,11 @@ def main() -> None:
     body = report(rows, f"python scripts/bench_tune_campaign.py --seeds {' '.join(map(str, args.seeds))} "
                         f"--budget {args.budget} --methods {' '.join(args.methods)}"
                         + "".join(f" --option {o}" for o in args.option))
-    if args.write:
-        write_section("MAVLink tuning campaign (issue 7)", body)
     print(body)
-    if not args.write:
-        print(f"(BENCHMARKS.md unchanged; --report {out / 'results.json'} ... writes the section)")
+    if args.write:
+        write_result("mavlink-campaign", body)
+    else:
+        print(f"(benchmarks/ unchanged; --report {out / 'results.json'} ... writes the results)")
 
 
 if __name__ == "__main__":
