@@ -1,4 +1,4 @@
-"""Paired comparison of methods flown on the same plants and seeds (issue 13's paper-setting goal: "ksbo at least
+"""Paired comparison of methods flown on the same plants and seeds (the paper-setting goal: "ksbo at least
 level with `standard` and `safeopt` on every plant and ahead on most").
 
 Medians of 20 runs move by a few hundredths from seed to seed, so a median comparison calls a plant "behind" on

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Optimiser overhead of the safe BO campaign (issue 5): seconds per ksbo proposal at 200 observations (9-D,
+"""Optimiser overhead of the safe BO campaign: seconds per ksbo proposal at 200 observations (9-D,
 orders 2, 3, 4, the campaign's options, one thread) and the rank-one model update. Reported by
 ``bench_campaign_report.py``; run alone it prints the numbers.
 

@@ -1,4 +1,5 @@
-"""Fly fixed gain sets on a fresh PX4 SITL and print each flight's lap-2 RMS (issue 13, BENCHMARKS.md item D).
+"""Fly fixed gain sets on a fresh PX4 SITL and print each flight's lap-2 RMS (how the PX4 search
+box was chosen: benchmarks/notes/plants.md).
 
 A one-trial `ksbo-mav tune` campaign takes off and snapshots the defaults, then every variant (the defaults with
 some gains replaced, by index into the profile's gain vector) is flown ``--reps`` times through the tuner's own

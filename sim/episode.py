@@ -162,7 +162,7 @@ def random_initial_states(n: int, rng: np.random.Generator, config: EpisodeConfi
 
 
 #: Speed of :func:`stress_initial_state` as a fraction of the start speed cap. Over 348 recommendations of the
-#: nominal tuning seeds (BENCHMARKS.md, issue 13, item AH) a start at 0.9 m/s against the path fails 66 of the 74
+#: nominal tuning seeds (benchmarks/notes/plants.md) a start at 0.9 m/s against the path fails 66 of the 74
 #: that fail from more than 2 % of 400 random starts and none of the 224 that fail from none; at the full 1 m/s
 #: it also fails 8 of those 224.
 STRESS_FRACTION = 0.9
@@ -175,8 +175,8 @@ def stress_initial_state(config: EpisodeConfig | None = None, v_max: float = 1.0
 
     The horizontal axis is the one the gains steer through the pitch loop (the vertical one has thrust directly),
     and a start against the path makes the largest initial error rate there: over the 200 planar recommendations of
-    BENCHMARKS.md (issue 13, item AH) flown from 1 m/s starts every 15°, the starts that fail are those against the
-    path in x (75°–180° and −180° to −60° from +x, most at ±150–180°; none within 45° of +x).
+    the plant suite (benchmarks/notes/plants.md) flown from 1 m/s starts every 15°, the starts that fail are those
+    against the path in x (75°–180° and −180° to −60° from +x, most at ±150–180°; none within 45° of +x).
     """
     config = config or EpisodeConfig()
     origin = config.figure8.position(0.0)

@@ -3,7 +3,7 @@
 A figure-8 whose reference is ``f(t)`` starts at full speed (3.5 m/s for the 3-D copter mission): a vehicle
 hovering at the start point sees a velocity step, tilts hard for half a second (28° on the JSBSim ArduCopter, 38–44°
 on the PX4 personality) and the monitor's tilt limit trips on that transient rather than on the gains' steady
-tracking (BENCHMARKS.md, issue 13). Flying ``f(φ(t))`` instead, with the phase rate φ' rising from 0 to 1 over
+tracking (benchmarks/notes/plants.md). Flying ``f(φ(t))`` instead, with the phase rate φ' rising from 0 to 1 over
 ``T`` seconds as the smoothstep 3u² − 2u³ (u = t/T), starts from rest with zero acceleration and joins the pattern
 at t = T with continuous position, velocity and acceleration; after that the reference is the pattern delayed by
 T/2. A lap scored after the lead-in is an ordinary lap of the pattern.

@@ -2,7 +2,7 @@
 
 A :class:`Plant` changes the *true* vehicle while the PID keeps the nominal constants it was written for (its
 hover feed-forward ``m g`` and its PWM → thrust map): a heavier vehicle, a weaker motor, a lagging or delayed
-actuator, noisy state estimates, wind gusts. :data:`PLANTS` is the benchmark suite (issue 13).
+actuator, noisy state estimates, wind gusts. :data:`PLANTS` is the benchmark suite.
 
 Noise and gusts are random per episode but deterministic: each episode's generator is seeded from the plant's
 ``seed`` and the bytes of its initial state, so a row's result never depends on the batch it flies in and
@@ -100,7 +100,7 @@ def _gusts(rng: np.random.Generator, steps: int, dt: float, peak: tuple[float, f
 #: Estimate noise of a Crazyflie-class estimator (m, m/s, rad, rad/s); "noise x3" flies with three times this.
 BASE_NOISE = (0.002, 0.01, 0.002, 0.01, 0.002, 0.02)
 
-#: The issue-13 suite: nominal and the variants, by name.
+#: The benchmark suite: nominal and the variants, by name.
 PLANTS: dict[str, Plant] = {
     p.name: p
     for p in (

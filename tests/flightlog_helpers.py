@@ -1,4 +1,4 @@
-"""Synthetic flight logs with known tracking errors (issue 15 tests): an ArduPilot DataFlash writer and a tlog
+"""Synthetic flight logs with known tracking errors (flight-log tests): an ArduPilot DataFlash writer and a tlog
 writer, both flying the profile figure-8 with ``actual = target + error(t)`` in closed form."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 15: `ksbo-mav compare A B` — the same segment type of two logs side by side (any formats), with a plot."""
+"""`ksbo-mav compare A B` — the same segment type of two logs side by side (any formats), with a plot."""
 
 from __future__ import annotations
 

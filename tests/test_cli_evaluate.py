@@ -1,4 +1,4 @@
-"""`ksbo-mav evaluate` and CLI error handling (issue 3), run as a real subprocess."""
+"""`ksbo-mav evaluate` and CLI error handling, run as a real subprocess."""
 
 import json
 import subprocess

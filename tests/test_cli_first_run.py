@@ -1,4 +1,4 @@
-"""First-run answers (issue 14): refused profiles, a closed TCP port and --help each give one clear line, a
+"""First-run answers: refused profiles, a closed TCP port and --help each give one clear line, a
 non-zero exit and no file; real subprocesses."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 7: `ksbo-mav score FILE.tlog` and the strict tlog reader, on synthetic two-way tlogs (no network):
+"""`ksbo-mav score FILE.tlog` and the strict tlog reader, on synthetic two-way tlogs (no network):
 exact P(a) from the log alone, interpolation across lost samples, clear errors for empty / truncated / corrupted /
 foreign / unfinished logs."""
 

@@ -1,4 +1,4 @@
-"""`ksbo-mav prior` and `ksbo-mav select` (issue 4): outputs, JSON keys, plot, and one-line errors on bad CSVs."""
+"""`ksbo-mav prior` and `ksbo-mav select`: outputs, JSON keys, plot, and one-line errors on bad CSVs."""
 
 from __future__ import annotations
 

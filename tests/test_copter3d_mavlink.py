@@ -1,4 +1,5 @@
-"""Issue 8 through the issue-6 endpoint: `python -m ksbo_sim.mavlink --vehicle copter3d --personality ...`.
+"""The JSBSim copter through the MAVLink simulator endpoint:
+`python -m ksbo_sim.mavlink --vehicle copter3d --personality ...`.
 
 Own process, real UDP on 127.0.0.1, lockstep. Checks the identity and parameter encoding of each personality,
 and flies the horizontal figure-8 over MAVLink against the in-process lap-2 error.

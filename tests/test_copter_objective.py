@@ -1,4 +1,4 @@
-"""Issue 13's plant suite: the JSBSim copter as an in-process objective scores like a MAVLink campaign (baseline
+"""The plant suite: the JSBSim copter as an in-process objective scores like a MAVLink campaign (baseline
 P = 0.5, P = 1 − RMS / (2 RMS_baseline)), searches the campaign's trust region, and turns a flight that breaks the
 profile's [safety] limits into an aborted (censored) trial."""
 

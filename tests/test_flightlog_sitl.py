@@ -1,4 +1,4 @@
-"""Issue 15 on real autopilots (../shared/sitl; skipped without it).
+"""Flight-log scoring on real autopilots (../shared/sitl; skipped without it).
 
 1. A figure-8 flown by a plain pymavlink client (ksbo_sim.sitl_flight, not the tuner) on ArduCopter and PX4 SITL:
    the autopilot's own log (.BIN / .ulg) and the client's tlog ("a tlog written by a different client") are both

@@ -1,4 +1,4 @@
-"""Issue 15 without a SITL: `ksbo-mav score` on synthetic DataFlash logs and other clients' tlogs with known
+"""Without a SITL: `ksbo-mav score` on synthetic DataFlash logs and other clients' tlogs with known
 tracking errors — format detection by content, segments, the figure-8 and its laps, errors against the logged
 target and the analytic reference, P from Mission.score, and one-line errors for damaged or unusable logs."""
 

@@ -49,7 +49,7 @@ def test_typed_values_of_the_shipped_profiles():
 
 def test_planar_profile_limits_are_the_in_process_monitors():
     """One set of limits for the planar task: a MAVLink flight of the built-in vehicle trips where the in-process
-    monitor trips (issue 13: same limits and logic), inside the environment bounds the simulator crashes at."""
+    monitor trips (same limits and logic), inside the environment bounds the simulator crashes at."""
     from ksbo_mav.mav.monitor import limits_from_profile
     from ksbo_sim.monitor import MonitorLimits, planar_monitor_limits
 
@@ -144,7 +144,7 @@ def test_unknown_safety_override_is_refused():
 
 
 def test_backup_coverage_implies_backup_exploration_for_ksbo_adaptive_only(tmp_path):
-    """Issue 13: the copter profiles (outer loops behind a lean-angle limit) let ksbo-adaptive explore beyond the
+    """The copter profiles (outer loops behind a lean-angle limit) let ksbo-adaptive explore beyond the
     certified set; the planar task (attitude loop tuned) does not; the user's option wins either way."""
     from ksbo_mav.campaign.config import BACKUP_BETA, optimizer_options, profile_defaults
 
@@ -162,7 +162,7 @@ def test_backup_coverage_implies_backup_exploration_for_ksbo_adaptive_only(tmp_p
 
 
 def test_px4_search_box_reaches_the_position_gain_that_halves_the_sitl_error():
-    """Issue 13: on PX4 SITL MPC_XY_P 1.9 alone (2x the 0.95 default) takes the lap-2 RMS from ~1.4 m to ~0.73 m;
+    """On PX4 SITL MPC_XY_P 1.9 alone (2x the 0.95 default) takes the lap-2 RMS from ~1.4 m to ~0.73 m;
     the default search box (profile box ∩ trust region around the defaults) must reach it, and the trust region
     still caps every gain at twice / half its default."""
     import numpy as np
@@ -177,7 +177,7 @@ def test_px4_search_box_reaches_the_position_gain_that_halves_the_sitl_error():
     assert np.all(box[:, 0] >= np.asarray(px4.default) / 2 * (1 - 1e-9))
 
 def test_a_gain_option_may_name_the_gain_as_the_profile_does():
-    """Issue 13 item AL: ``--option chatter_dim=ATT_PIT_D`` picks the gain by name (any case) instead of its index
+    """``--option chatter_dim=ATT_PIT_D`` picks the gain by name (any case) instead of its index
     in the profile's order; a name the profile does not tune is refused naming the choices, before any flight."""
     from ksbo_mav.campaign.config import CampaignConfig, optimizer_options
 

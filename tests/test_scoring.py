@@ -1,4 +1,4 @@
-"""P(a) scoring (issue 3): formula, penalties, configuration."""
+"""P(a) scoring: formula, penalties, configuration."""
 
 import numpy as np
 import pytest

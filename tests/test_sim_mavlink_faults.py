@@ -1,4 +1,4 @@
-"""Issue 6: fault injection (packet loss, silence, delay), estimator noise and the real-time clock of the
+"""Fault injection (packet loss, silence, delay), estimator noise and the real-time clock of the
 MAVLink simulator (own process, real UDP on 127.0.0.1)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 6: guided flight through the MAVLink simulator (own process, real UDP on 127.0.0.1, lockstep)."""
+"""Guided flight through the MAVLink simulator (own process, real UDP on 127.0.0.1, lockstep)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 6: MAVProxy (the `interop` extra) connects to the simulator, fetches all parameters (after the MAVFTP NAK
+"""MAVProxy (the `interop` extra) connects to the simulator, fetches all parameters (after the MAVFTP NAK
 fallback) and sets one; a plain pymavlink client then reads the new value back from the vehicle."""
 
 from __future__ import annotations

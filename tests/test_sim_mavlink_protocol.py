@@ -1,4 +1,4 @@
-"""Issue 6: identity, parameter protocol, commands, robustness and process handling of the MAVLink simulator
+"""Identity, parameter protocol, commands, robustness and process handling of the MAVLink simulator
 (own process, real UDP/TCP sockets on 127.0.0.1, plain pymavlink client)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 6 unit tests without sockets: the planar VehicleModel, parameter encodings, personalities, estimator."""
+"""Unit tests without sockets: the planar VehicleModel, parameter encodings, personalities, estimator."""
 
 from __future__ import annotations
 

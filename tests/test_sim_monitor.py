@@ -1,4 +1,4 @@
-"""The in-process monitor and backup (issue 13): aborted vs crashed flights, plant variants, one limit check."""
+"""The in-process monitor and backup: aborted vs crashed flights, plant variants, one limit check."""
 
 from __future__ import annotations
 

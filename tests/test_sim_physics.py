@@ -1,4 +1,4 @@
-"""Planar physics, controller and figure-8 reference (issue 3)."""
+"""Planar physics, controller and figure-8 reference."""
 
 import math
 

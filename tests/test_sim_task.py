@@ -1,4 +1,4 @@
-"""The figure-8 task end to end: safety of the default gains, crashes, batched vs one-at-a-time (issue 3)."""
+"""The figure-8 task end to end: safety of the default gains, crashes, batched vs one-at-a-time."""
 
 import numpy as np
 import pytest
@@ -121,7 +121,7 @@ def test_objective_rejects_bad_gains():
             obj(np.array(bad))
 
 
-#: Gains on the fragile top of the x-P ridge (issue 13, item AH): they complete from most starts and fail from those
+#: Gains on the fragile top of the x-P ridge: they complete from most starts and fail from those
 #: against the path in x (66 of 400 random starts, every one between 101 and 180 degrees from +x).
 FRAGILE = np.array([0.6298, 0.000687, 0.1661, 0.9042, 0.0331, 1.718, 28373.0, 1051.8, 7069.7])
 
@@ -145,7 +145,7 @@ def test_stress_start_is_against_the_path_and_fails_fragile_gains():
 
 def test_a_monitored_trial_reports_the_pitch_chatter_symptom_and_the_problem_keeps_it():
     """A0's pitch D gain drives a step-to-step pitch-rate limit cycle on the nominal plant (``pitch_chatter`` ≈ 1.4);
-    at 0.15 of its range the rate is smooth (issue 13 item AL). ``Problem`` records each evaluation's symptoms."""
+    at 0.15 of its range the rate is smooth. ``Problem`` records each evaluation's symptoms."""
     from ksbo_mav.objective import SimObjective
     from ksbo_mav.opt.problem import Problem
 

@@ -1,4 +1,4 @@
-"""Issue 12 on a real ArduCopter SITL (../shared/sitl/ardupilot, or $KSBO_ARDUPILOT_SITL): a campaign takes off
+"""A real ArduCopter SITL (../shared/sitl/ardupilot, or $KSBO_ARDUPILOT_SITL): a campaign takes off
 from the ground with fresh parameters, flies its trials, lands and disarms, and leaves every parameter as it found
 it (autopilot statistics aside); live scores equal `score`; restore/accept; kill -9 + restore + resume; 20x."""
 

@@ -1,4 +1,4 @@
-"""Issue 12, link conditions on a real ArduCopter SITL: at 20x simulated speed no setpoint is skipped and no trial
+"""Link conditions on a real ArduCopter SITL: at 20x simulated speed no setpoint is skipped and no trial
 is ruled "link lost"; through MAVProxy (a ground station that requests its own stream rates, resetting the
 tool's message intervals) a campaign completes and scores like a direct one."""
 

@@ -1,4 +1,4 @@
-"""Issue 12 on a real PX4 SITL (SIH quad; ../shared/sitl/px4, or $KSBO_PX4_SITL): from the ground with fresh
+"""A real PX4 SITL (SIH quad; ../shared/sitl/px4, or $KSBO_PX4_SITL): from the ground with fresh
 parameters, a campaign streams setpoints before OFFBOARD, retries arming while the preflight checks run, flies,
 lands and disarms; the parameters equal the snapshot afterwards; live scores equal `score`; accept, restore.
 

@@ -1,4 +1,4 @@
-"""Issue 7 x issue 8: `ksbo-mav tune` against the JSBSim copter in each autopilot personality (own process,
+"""`ksbo-mav tune` against the JSBSim copter in each autopilot personality (own process,
 loopback UDP, lockstep): the client detects the stack and ArduPilot's name generation, flies the horizontal
 figure-8, improves the lap-2 tracking error over the default gains, and leaves the baseline on the vehicle."""
 

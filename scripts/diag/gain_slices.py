@@ -1,8 +1,8 @@
-"""Issue 13 diagnostic: the planar plants' score along one gain at a time, from a0.
+"""Diagnostic: the planar plants' score along one gain at a time, from a0.
 
 Each slice moves one gain of a0 (unit cube of the sim-planar profile) over a grid and flies every point from the
 8 fixed initial conditions under the in-process monitor: E[P] and how many of the 8 starts abort or crash. It
-shows why every method stalls near 0.4 on pitch inertia ×0.5, the 40 ms delay and noise ×3 (item AI): their
+shows why every method stalls near 0.4 on pitch inertia ×0.5, the 40 ms delay and noise ×3: their
 score is a plateau along the pitch D gain with a cliff to 0.9 at 0.05–0.1 of its range (iyy×0.5), and next to
 the cliff the gains fail.
 

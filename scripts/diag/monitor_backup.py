@@ -1,4 +1,4 @@
-"""Issue 13 diagnostic: does the in-process monitor turn bad flights into recovered ones (aborted) rather than
+"""Diagnostic: does the in-process monitor turn bad flights into recovered ones (aborted) rather than
 crashes? The same random gains are flown, from the same random initial conditions, under two monitors:
 
 - ``before``: the monitor of the tenth session — box checked at the position only, backup flown through SCG's

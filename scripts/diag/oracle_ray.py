@@ -1,4 +1,4 @@
-"""Issue 13 diagnostic: what lies between a run's recommendation and the nominal oracle gains (E[P] 0.965)?
+"""Diagnostic: what lies between a run's recommendation and the nominal oracle gains (E[P] 0.965)?
 
 For each nominal-plant record of ``benchmarks/plants/records.jsonl`` (one method, one mode), the straight segment
 from the recommendation to the oracle in the optimiser's unit cube is flown at 51 points on the plant's 8 fixed

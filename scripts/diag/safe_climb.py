@@ -1,4 +1,4 @@
-"""Issue 13 diagnostic: how high can a planar plant's E[P] be driven from a0 without ever stepping onto gains that
+"""Diagnostic: how high can a planar plant's E[P] be driven from a0 without ever stepping onto gains that
 fail, when flights are free?
 
 A (1+λ) evolution strategy in the optimiser's unit cube, started at a0. Each generation draws λ gains around the

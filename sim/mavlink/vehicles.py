@@ -1,6 +1,6 @@
 """Vehicle models the endpoint can serve, by ``--vehicle`` name.
 
-Hook for new models: a factory ``(personality_name, seed) -> VehicleModel``. The JSBSim copter (issue 8) plugs
+Hook for new models: a factory ``(personality_name, seed) -> VehicleModel``. The JSBSim copter plugs
 in as ``copter3d`` by providing ``ksbo_sim.copter3d.make_vehicle(personality: str, seed: int | None)``; the
 endpoint picks HEARTBEAT autopilot type, custom modes and INT32 encoding from the personality
 (``ksbo_sim.mavlink.personality``), the model only supplies its ParamSpecs (named per personality) and physics.
