@@ -77,43 +77,27 @@ def from_output(title: str, rel: str, tables: int = 1, extra: str = "") -> str:
     return "\n\n".join(x for x in (f"## {title}", body, extra, _link(path)) if x)
 
 
-def simulator() -> str:
-    return from_output("Planar simulator", "simulator/results.md")
+#: The benchmarks whose output is Markdown: (section title, output under benchmarks/, headline tables, extra text).
+MARKDOWN_OUTPUTS = {
+    "mavlink_campaign": ("MAVLink tuning campaign on the built-in vehicle", "mavlink-campaign/results.md", 1, ""),
+    "sitl_campaign": ("Real autopilots from the ground (the paper's optimiser)", "sitl-campaign/results.md", 1,
+                      "Reading: [benchmarks/notes/real-autopilots.md](benchmarks/notes/real-autopilots.md)."),
+    "safe_bo_campaign": ("Safe BO campaign: the paper's comparison", "campaign/summary.md", 2,
+                         "![paper setting](docs/figures/campaign_paper.png)\n\nReading: "
+                         "[benchmarks/notes/safe-bo-campaign.md](benchmarks/notes/safe-bo-campaign.md)."),
+    "kernel_selection": ("Kernel selection", "kernel-selection/results.md", 1, ""),
+    "landscape": ("Planar task landscape around a0", "landscape/results.md", 1, ""),
+    "simulator": ("Planar simulator", "simulator/results.md", 1, ""),
+    "copter3d": ("JSBSim 3-D copter", "copter3d/results.md", 1, ""),
+    "mavlink_sim": ("MAVLink simulator", "mavlink-sim/results.md", 1, ""),
+    "log_scoring": ("Flight-log scoring", "log-scoring/results.md", 1, ""),
+}
 
 
-def copter3d() -> str:
-    return from_output("JSBSim 3-D copter", "copter3d/results.md")
-
-
-def mavlink_sim() -> str:
-    return from_output("MAVLink simulator", "mavlink-sim/results.md")
-
-
-def kernel_selection() -> str:
-    return from_output("Kernel selection", "kernel-selection/results.md")
-
-
-def landscape() -> str:
-    return from_output("Planar task landscape around a0", "landscape/results.md")
-
-
-def log_scoring() -> str:
-    return from_output("Flight-log scoring", "log-scoring/results.md")
-
-
-def mavlink_campaign() -> str:
-    return from_output("MAVLink tuning campaign on the built-in vehicle", "mavlink-campaign/results.md")
-
-
-def sitl_campaign() -> str:
-    return from_output("Real autopilots from the ground (the paper's optimiser)", "sitl-campaign/results.md",
-                       extra="Reading: [benchmarks/notes/real-autopilots.md](benchmarks/notes/real-autopilots.md).")
-
-
-def safe_bo_campaign() -> str:
-    return from_output("Safe BO campaign: the paper's comparison", "campaign/summary.md", tables=2,
-                       extra="![paper setting](docs/figures/campaign_paper.png)\n\nReading: "
-                             "[benchmarks/notes/safe-bo-campaign.md](benchmarks/notes/safe-bo-campaign.md).")
+def markdown_section(name: str) -> str:
+    """The section of the benchmark ``name`` of :data:`MARKDOWN_OUTPUTS`."""
+    title, rel, tables, extra = MARKDOWN_OUTPUTS[name]
+    return from_output(title, rel, tables, extra)
 
 
 # --- The plant suite, from its records ------------------------------------------------------------------------
@@ -201,13 +185,13 @@ def plant_suite() -> str:
     ])
 
 
-#: The page, section by section, in reading order.
-SECTIONS = (plant_suite, mavlink_campaign, sitl_campaign, safe_bo_campaign, kernel_selection, landscape,
-            simulator, copter3d, mavlink_sim, log_scoring)
+def sections() -> dict[str, str]:
+    """Every section of the page by benchmark name, in reading order."""
+    return {"plant_suite": plant_suite(), **{name: markdown_section(name) for name in MARKDOWN_OUTPUTS}}
 
 
 def build() -> str:
-    return "\n\n".join([HEADER.strip(), *(f().strip() for f in SECTIONS)]) + "\n"
+    return "\n\n".join([HEADER.strip(), *(s.strip() for s in sections().values())]) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
