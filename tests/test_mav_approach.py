@@ -86,7 +86,7 @@ def test_moving_start_trial_flies_the_in_process_episode_and_shows_bistable_gain
         v = Vehicle.connect(ep)
         try:
             v.setup_streams()
-            base = {n: v.params.table[n].value for n in v.gains.vehicle}
+            base = {n: v.params.table[n].value for n in v.gain_map.param_names}
             inproc = SimObjective("sim-planar", monitor=True)
             obj = MavlinkObjective(v, base, tmp_path / "moving", start_seed=0)
             for trial, gains in ((0, v.profile.default), (1, BISTABLE)):

@@ -84,7 +84,7 @@ def accept_campaign(path: str | Path, endpoint: Endpoint, log: Callable[[str], N
         check_identity(snap, v)
         base = snap.baseline()
         best = {str(n): float(x) for n, x in result["best"]["values"].items()}
-        v.check_trial_gains(v.gains.from_vehicle(best), v.gains.from_vehicle(base))
+        v.check_trial_gains(v.gain_map.from_params(best), v.gain_map.from_params(base))
         v.restore(best)
         write_accepted(d, base, best, v)
         return best

@@ -26,12 +26,12 @@ from ksbo_mav.campaign.prior import campaign_prior
 from ksbo_mav.campaign.replay import JournalReplay
 from ksbo_mav.campaign.resume import check_unchanged
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
-from ksbo_mav.errors import InputError, KsboError, UnsafeStartError, VehicleError
+from ksbo_mav.errors import InputError, KsboError, TrialInterrupted, TrialStopped, UnsafeStartError, VehicleError
 from ksbo_mav.mav.approach import check_moving_start, moving_starts
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.monitor import limits_from_profile
-from ksbo_mav.mav.objective import MavlinkObjective, TrialStopped
+from ksbo_mav.mav.objective import MavlinkObjective
 from ksbo_mav.mav.snapshot import fsync_write, load_snapshot, write_snapshot
 from ksbo_mav.mav.vehicle import Vehicle
 from ksbo_mav.objective import Flight
@@ -77,9 +77,9 @@ class Campaign:
             else:
                 self.log("baseline gains verified on the vehicle")
             return base
-        base = {n: v.params.table[n].value for n in v.gains.vehicle}
+        base = {n: v.params.table[n].value for n in v.gain_map.param_names}
         try:
-            v.profile.check_gains(v.gains.from_vehicle(base))
+            v.profile.check_gains(v.gain_map.from_params(base))
         except InputError as exc:
             raise InputError(f"the vehicle's current gains are outside the profile's search box ({exc}); "
                              "set safe gains inside the box first") from None
@@ -87,9 +87,9 @@ class Campaign:
 
     def _create(self, v: Vehicle, base: dict[str, float]) -> None:
         """Snapshot every parameter, then the settings: the directory exists only from here on."""
-        x0 = v.gains.from_vehicle(base)
-        snap = write_snapshot(self.dir.snapshot_stem, v.identity.to_dict(), v.stack.name, v.gains.generation,
-                              v.profile.name, list(v.gains.vehicle), v.params.table)
+        x0 = v.gain_map.from_params(base)
+        snap = write_snapshot(self.dir.snapshot_stem, v.identity.to_dict(), v.stack.name, v.gain_map.generation,
+                              v.profile.name, list(v.gain_map.param_names), v.params.table)
         self.log(f"snapshot written: {snap.path.with_suffix('')}.{{param,params,json}}")
         self.dir.write_settings({"config": self.cfg.to_dict(), "profile": v.profile.name, "baseline": base,
                                  "x0": x0.tolist(), "bounds": opt_bounds(v.profile, x0).tolist(),
@@ -99,14 +99,14 @@ class Campaign:
     def plan(self, base: dict[str, float]) -> str:
         v = self.vehicle
         assert v is not None
-        x0 = v.gains.from_vehicle(base)
+        x0 = v.gain_map.from_params(base)
         b = opt_bounds(v.profile, x0)
         rows = [f"  {g.name:<16} {n:<16} now {x:<10.5g} tune in [{lo:.5g}, {hi:.5g}]"
-                for g, n, x, (lo, hi) in zip(v.profile.gains, v.gains.vehicle, x0, b)]
+                for g, n, x, (lo, hi) in zip(v.profile.gains, v.gain_map.param_names, x0, b)]
         n_prior = self.cfg.n_prior or 8 if self._prior_kind() == "local" else 0
         return "\n".join([
             f"vehicle: sysid {v.identity.sysid}, {v.stack.name} {v.identity.firmware}"
-            + (f", {v.gains.generation} parameter names" if v.gains.generation else ""),
+            + (f", {v.gain_map.generation} parameter names" if v.gain_map.generation else ""),
             f"profile: {v.profile.name}; method {self.cfg.method}, {self.cfg.budget} trials "
             f"(+ prior '{self._prior_kind()}'), seed {self.cfg.seed}" + _options_note(self.cfg, v.profile),
             "gains (profile name, vehicle name, current value, optimiser range):", *rows,
@@ -146,10 +146,9 @@ class Campaign:
         journal = self.journal
         try:
             f = self.objective.fly(x, label=kind, stress=stress)
-        except (TrialStopped, KeyboardInterrupt) as exc:
-            f = exc.flight if isinstance(exc, TrialStopped) else self.objective.last_flight
-            if f is not None and f.meta.get("trial") == self.objective.index - 1 and not journal.has_trial(
-                    f.meta["trial"]):
+        except (TrialStopped, TrialInterrupted) as exc:
+            f = exc.flight
+            if not journal.has_trial(f.meta["trial"]):
                 # A crash of a real vehicle is the gains' doing; anything else that stops a trial is not.
                 journal.append(JournalEntry.of(kind if f.outcome == "crash" else "failed", f))
             raise
@@ -228,7 +227,7 @@ class Campaign:
             optimizer_options("none", self.cfg.options, self.cfg.method, v.profile)  # gain names: before flying
             if not self.resume:
                 self._create(v, base)
-            x0 = v.gains.from_vehicle(base)
+            x0 = v.gain_map.from_params(base)
             bounds = opt_bounds(v.profile, x0)
             self.journal = Journal(self.dir.journal)
             v.setup_streams()
@@ -266,7 +265,7 @@ class Campaign:
         journal = self.journal
         assert v is not None and journal is not None
         opt = journal.of("opt")
-        best_values = v.gains.to_vehicle(best)
+        best_values = v.gain_map.to_params(best)
         # Gains that failed a confirmation flight are never left on the vehicle by themselves.
         failures = confirm_failures(journal.of("confirm"))
         accepted = self.cfg.accept and not failures
@@ -284,7 +283,7 @@ class Campaign:
         ended = self._end_flight(error=False)
         gain_aborts = [e for e in journal.entries if e.outcome.gain_caused]
         summary = CampaignSummary(
-            baseline={"x": v.gains.from_vehicle(base).tolist(), "values": base, "P": opt[0].P if opt else None,
+            baseline={"x": v.gain_map.from_params(base).tolist(), "values": base, "P": opt[0].P if opt else None,
                       "trial": self.baseline_trial, "rms_m": opt[0].rms if opt else None},
             best={"x": best.tolist(), "values": best_values, "P_model": float(result.fun),
                   "P_confirm": float(np.mean(confirms)) if confirms else None, "P_confirm_all": confirms,
