@@ -98,13 +98,19 @@ def option_arg(text: str) -> tuple[str, Any]:
 
 
 def config_from_args(args: argparse.Namespace):
-    """The campaign settings, validated (InputError, one line) before anything is connected or written."""
+    """The campaign settings, validated (InputError, one line) before anything is connected or written. What the
+    command line gives wins over the stored campaign's (on --resume) and the defaults
+    (:func:`ksbo_mav.campaign.config.resolve`); on --resume only the settings that do not change what the optimiser
+    has seen may differ."""
     from ksbo_mav.campaign import CampaignConfig, CampaignDir
+    from ksbo_mav.campaign.config import resolve
 
     given: dict[str, Any] = {k: getattr(args, k) for k in _DEFINING if getattr(args, k) is not None}
     if getattr(args, "option", None):
         given["options"] = dict(option_arg(o) for o in args.option)  # they define the campaign too
-    common = {"accept": args.accept, "end": args.end, "sysid": args.sysid, "compid": args.compid}
+    # --end has a default, so it is always given; --accept only turns accepting on.
+    resumable = {"end": args.end, **({"accept": True} if args.accept else {}),
+                 **{k: getattr(args, k) for k in ("sysid", "compid") if getattr(args, k) is not None}}
     if args.resume:
         if args.dir:
             raise InputError("give either DIR (a new campaign) or --resume DIR, not both")
@@ -115,15 +121,11 @@ def config_from_args(args: argparse.Namespace):
         if clash:
             raise InputError(f"--resume {args.resume}: {', '.join(clash)} would change the campaign; resume it "
                              "as it was (or start a new one in another directory)")
-        stored.dir = args.resume
-        stored.accept = stored.accept or args.accept
-        stored.end = args.end
-        stored.sysid = args.sysid if args.sysid is not None else stored.sysid
-        stored.compid = args.compid if args.compid is not None else stored.compid
-        return stored.validate()
+        return CampaignConfig(**resolve(command_line={"dir": args.resume, **resumable},
+                                        stored=stored.to_dict())).validate()
     if not args.dir:
         raise InputError("give a campaign directory DIR (or --resume DIR)")
-    cfg = CampaignConfig(dir=args.dir, **given, **common).validate()
+    cfg = CampaignConfig(**resolve(command_line={"dir": args.dir, **given, **resumable})).validate()
     if not args.dry_run and CampaignDir.at(args.dir).exists():
         raise InputError(f"{args.dir} already holds a campaign; use --resume {args.dir} or another directory")
     return cfg
