@@ -1,4 +1,4 @@
-"""Issue 14, `tune` on a first run: every option is checked before anything is connected or written, a failed
+"""`tune` on a first run: every option is checked before anything is connected or written, a failed
 start leaves no directory, --resume refuses options that would change the stored campaign, a damaged
 campaign.json is one clear line, and --dry-run prints the flight plan. Real subprocesses (and the built-in
 simulator over loopback UDP for the dry run)."""
@@ -114,7 +114,7 @@ def test_dry_run_prints_the_flight_plan_and_writes_nothing(tmp_path):
 
 @pytest.mark.network
 def test_sysid_and_compid_reach_the_wire(tmp_path):
-    """Issue 12: --sysid/--compid are the ids the tool speaks with (they were parsed and dropped before)."""
+    """--sysid/--compid are the ids the tool speaks with (they were parsed and dropped before)."""
     from ksbo_mav.mav.tlog import read_tlog
 
     d = tmp_path / "ids"

@@ -1,4 +1,4 @@
-"""Issue 12, the pure parts of the flight logic: the vehicle clock, STATUSTEXT on one line, the 3-D score relative
+"""The pure parts of the flight logic: the vehicle clock, STATUSTEXT on one line, the 3-D score relative
 to the baseline at any telemetry rate, and the tlog trial markers (reference RMS, packet loss)."""
 
 from __future__ import annotations

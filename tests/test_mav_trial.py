@@ -205,7 +205,7 @@ def test_restore_gets_through_20_percent_packet_loss(rig):
 
 
 def test_lost_packets_are_counted_as_loss_not_as_a_slow_client(rig):
-    """Issue 12: samples lost on the link show up as sequence gaps (``link.lost_packets``) and are interpolated;
+    """Samples lost on the link show up as sequence gaps (``link.lost_packets``) and are interpolated;
     the client was never late (lockstep answers each sample at its own time), so the trial still counts."""
     sim, v, base, tmp = rig
     v.params.set_verified("SIM_FAULT_AFTER", 3.0)  # after takeoff and the settle
