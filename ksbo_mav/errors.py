@@ -1,5 +1,7 @@
 """Exception types that the CLI turns into one-line messages and a non-zero exit code."""
 
+from typing import TYPE_CHECKING
+
 from ksbo_sim.errors import SimInputError
 
 
@@ -14,6 +16,40 @@ class InputError(KsboError, SimInputError):
 
 class VehicleError(KsboError):
     """The vehicle did not answer, refused a command, or behaved unexpectedly."""
+
+
+class LinkLost(VehicleError):
+    """No heartbeat / telemetry from the vehicle for longer than the profile's timeout."""
+
+
+class ClockStalled(VehicleError):
+    """The vehicle's clock did not advance for longer than the stall timeout (no timestamped telemetry)."""
+
+
+class PreflightError(VehicleError):
+    """Arming, takeoff or positioning failed: nothing to do with the gains being tuned."""
+
+
+if TYPE_CHECKING:
+    from ksbo_mav.objective import Flight
+
+
+class TrialStopped(VehicleError):
+    """A trial was aborted for a reason that must stop the campaign (pilot, link, crash of a real vehicle);
+    ``flight`` is its recorded result."""
+
+    def __init__(self, message: str, flight: "Flight") -> None:
+        super().__init__(message)
+        self.flight = flight
+
+
+class TrialInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a trial, raised once the trial is recorded (its baseline restored unless a second Ctrl-C
+    stopped that); ``flight`` is its recorded result. A KeyboardInterrupt: whatever stops on Ctrl-C stops here."""
+
+    def __init__(self, flight: "Flight") -> None:
+        super().__init__("interrupted by the user")
+        self.flight = flight
 
 
 class UnsafeStartError(InputError):

@@ -147,13 +147,13 @@ def test_option_reaches_the_campaign_config_and_resume_keeps_it(tmp_path):
 def test_plan_names_the_options_the_profile_implies_and_the_users():
     """The campaign header says when the profile turned on backup exploration (and the user's options)."""
     from ksbo_mav.campaign.config import CampaignConfig
-    from ksbo_mav.campaign.runner import _options_note
+    from ksbo_mav.campaign.plan import options_note
     from ksbo_mav.profiles import load_profile
 
     ap, planar = load_profile("ardupilot-copter"), load_profile("sim-planar")
     assert CampaignConfig(dir="x").method == "ksbo-adaptive"  # the tune default
-    note = _options_note(CampaignConfig(dir="x", options={"max_aborts": 4}), ap)
+    note = options_note(CampaignConfig(dir="x", options={"max_aborts": 4}), ap)
     assert "backup_beta=0.5 (profile: the backup covers its trials)" in note and "max_aborts=4" in note
-    assert _options_note(CampaignConfig(dir="x", options={"backup_beta": 1.0}), ap) == "; options backup_beta=1.0"
-    assert _options_note(CampaignConfig(dir="x"), planar) == ""
-    assert _options_note(CampaignConfig(dir="x", method="ksbo"), ap) == ""
+    assert options_note(CampaignConfig(dir="x", options={"backup_beta": 1.0}), ap) == "; options backup_beta=1.0"
+    assert options_note(CampaignConfig(dir="x"), planar) == ""
+    assert options_note(CampaignConfig(dir="x", method="ksbo"), ap) == ""

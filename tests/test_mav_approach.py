@@ -1,6 +1,6 @@
 """Moving starts of planar MAVLink trials (ksbo_mav.mav.approach): the vehicle passes the figure-8 start at the
 task's random initial velocity, so a MAVLink trial flies the in-process episode from the same start, and gains
-that fail only once the vehicle moves fail on the vehicle too (issue 13, item AE)."""
+that fail only once the vehicle moves fail on the vehicle too."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ from ksbo_mav.profiles import load_profile
 from ksbo_sim.episode import random_initial_states
 from ksbo_sim.monitor import planar_monitor_limits
 
-#: A recommendation of a MAVLink campaign (issue 13 item AD, ksbo, test seed 1): 0.79 from a settled hover, but
+#: A recommendation of a MAVLink campaign (method ksbo, test seed 1): 0.79 from a settled hover, but
 #: its pitch loop diverges from some of the task's moving starts (E[P] 0.34 over the 8 fixed starts).
 BISTABLE = np.array([0.23723692712545302, 0.03178322529108468, 0.10997401710788994, 0.4160030885005886,
                      0.046562993149018635, 0.4693669934198613, 37808.323008558866, 244.43470109568074,
@@ -86,7 +86,7 @@ def test_moving_start_trial_flies_the_in_process_episode_and_shows_bistable_gain
         v = Vehicle.connect(ep)
         try:
             v.setup_streams()
-            base = {n: v.params.table[n].value for n in v.gains.vehicle}
+            base = {n: v.params.table[n].value for n in v.gain_map.param_names}
             inproc = SimObjective("sim-planar", monitor=True)
             obj = MavlinkObjective(v, base, tmp_path / "moving", start_seed=0)
             for trial, gains in ((0, v.profile.default), (1, BISTABLE)):

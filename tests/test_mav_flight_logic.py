@@ -1,4 +1,4 @@
-"""Issue 12, the pure parts of the flight logic: the vehicle clock, STATUSTEXT on one line, the 3-D score relative
+"""The pure parts of the flight logic: the vehicle clock, STATUSTEXT on one line, the 3-D score relative
 to the baseline at any telemetry rate, and the tlog trial markers (reference RMS, packet loss)."""
 
 from __future__ import annotations
@@ -9,7 +9,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from ksbo_mav.mav.clock import ClockStalled, VehicleClock
+from ksbo_mav.errors import ClockStalled
+from ksbo_mav.mav.clock import VehicleClock
 from ksbo_mav.mav.commands import Commander, one_line
 from ksbo_mav.mav.mission import MIN_SCORE_RATE_HZ, Mission
 from ksbo_mav.mav.trajectory import TrialRecorder, end_text, ref_text, start_text
@@ -138,12 +139,12 @@ def test_lost_samples_are_filled_inside_and_held_at_the_ends_of_a_trial():
 
 
 def test_a_trip_right_after_the_stream_stalled_is_blamed_on_the_client():
-    from ksbo_mav.mav.objective import STALL_MS, _lag_stats, _stall_before
+    from ksbo_mav.mav.trial_record import STALL_MS, lag_stats, stall_before
 
     lag = [0.0] * 300
     lag[250] = 2 * STALL_MS  # the tuner fell 1 s behind at step 250
-    assert _stall_before(lag, 280) > STALL_MS  # a trip 30 steps later: the client's doing
-    assert _stall_before(lag, 299 + 200) == 0.0  # long after it: the gains'
-    assert _stall_before([], 10) == 0.0
-    stats = _lag_stats(lag, 200)
+    assert stall_before(lag, 280) > STALL_MS  # a trip 30 steps later: the client's doing
+    assert stall_before(lag, 299 + 200) == 0.0  # long after it: the gains'
+    assert stall_before([], 10) == 0.0
+    stats = lag_stats(lag, 200)
     assert stats["lag_max_ms"] == 2 * STALL_MS and stats["late_fraction"] == pytest.approx(1 / 100)

@@ -59,12 +59,12 @@ def test_both_ardupilot_generations_and_px4_map_to_the_same_gain_vector():
         "px4": GainMap.build(px4.names, PX4, _table(PX4_TABLE), px4),
     }
     assert maps["new"].generation == "new" and maps["legacy"].generation == "legacy"
-    assert maps["legacy"].vehicle[:2] == ("PSC_POSXY_P", "PSC_VELXY_P")
+    assert maps["legacy"].param_names[:2] == ("PSC_POSXY_P", "PSC_VELXY_P")
     for name, table in (("new", AP_NEW), ("legacy", AP_LEGACY), ("px4", PX4_TABLE)):
-        x = maps[name].from_vehicle(table)
+        x = maps[name].from_params(table)
         np.testing.assert_allclose(x, want, err_msg=name)
-        back = maps[name].to_vehicle(x)  # and the way back writes the stack's own names and units
-        assert back == pytest.approx({n: table[n] for n in maps[name].vehicle})
+        back = maps[name].to_params(x)  # and the way back writes the stack's own names and units
+        assert back == pytest.approx({n: table[n] for n in maps[name].param_names})
 
 
 def test_legacy_scale_factors_of_rescaled_parameters():
@@ -72,10 +72,10 @@ def test_legacy_scale_factors_of_rescaled_parameters():
     prof_names = ["PSC_D_ACC_P", "PSC_NE_VEL_IMAX", "PSC_D_ACC_IMAX"]
     gm = GainMap.build(prof_names, ARDUPILOT, _table({"PSC_POSXY_P": 1, "PSC_ACCZ_P": 0.5, "PSC_VELXY_IMAX": 1000,
                                                       "PSC_ACCZ_IMAX": 800}))
-    assert gm.vehicle == ("PSC_ACCZ_P", "PSC_VELXY_IMAX", "PSC_ACCZ_IMAX")
-    np.testing.assert_allclose(gm.from_vehicle({"PSC_ACCZ_P": 0.5, "PSC_VELXY_IMAX": 1000, "PSC_ACCZ_IMAX": 800}),
+    assert gm.param_names == ("PSC_ACCZ_P", "PSC_VELXY_IMAX", "PSC_ACCZ_IMAX")
+    np.testing.assert_allclose(gm.from_params({"PSC_ACCZ_P": 0.5, "PSC_VELXY_IMAX": 1000, "PSC_ACCZ_IMAX": 800}),
                                [0.05, 10.0, 0.8])
-    assert gm.to_vehicle(np.array([0.05, 10.0, 0.8])) == pytest.approx(
+    assert gm.to_params(np.array([0.05, 10.0, 0.8])) == pytest.approx(
         {"PSC_ACCZ_P": 0.5, "PSC_VELXY_IMAX": 1000.0, "PSC_ACCZ_IMAX": 800.0})
     assert len(ARDUPILOT_LEGACY) == len({old for old, _ in ARDUPILOT_LEGACY.values()})
 
@@ -92,7 +92,7 @@ def test_unknown_or_ambiguous_vehicles_are_refused():
     with pytest.raises(VehicleError, match="unsupported autopilot"):
         detect_stack(Identity(1, 1, autopilot=0, vehicle_type=2, vendor_id=0))  # generic, not ours
     with pytest.raises(InputError):
-        GainMap.build(["PSC_NE_POS_P"], ARDUPILOT, _table(AP_NEW)).to_vehicle(np.zeros(2))
+        GainMap.build(["PSC_NE_POS_P"], ARDUPILOT, _table(AP_NEW)).to_params(np.zeros(2))
 
 
 def test_stack_detection_modes_and_default_profiles():
@@ -109,7 +109,7 @@ def test_stack_detection_modes_and_default_profiles():
 
 
 def test_trust_region_is_absolute_and_baseline_relative():
-    from ksbo_mav.mav.vehicle import trust_region
+    from ksbo_mav.mav.gains import trust_region
 
     ap = load_profile("ardupilot-copter")  # max_step_fraction 0.5, max_ratio 2
     base = ap.default

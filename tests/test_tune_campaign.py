@@ -1,4 +1,4 @@
-"""Issue 7: campaigns against the simulator process over loopback UDP: improvement with the baseline restored
+"""Campaigns against the simulator process over loopback UDP: improvement with the baseline restored
 (fresh read), accept / restore commands, Ctrl-C, and SIGKILL followed by --resume and restore."""
 
 from __future__ import annotations
@@ -196,7 +196,7 @@ def test_local_prior_is_flown_around_the_baseline_and_journalled(tmp_path):
 
 @pytest.mark.timeout(180)
 def test_pilot_mode_change_is_journalled_as_failed_not_as_a_gain_point(tmp_path):
-    """Issue 12: a trial the pilot interrupts says nothing about its gains: journalled as "failed", never given to
+    """A trial the pilot interrupts says nothing about its gains: journalled as "failed", never given to
     the optimiser; the campaign stops with the reason, baseline restored, and --resume starts cleanly."""
     from ksbo_mav.mav.link import Endpoint
     from ksbo_mav.mav.vehicle import Vehicle

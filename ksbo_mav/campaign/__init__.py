@@ -1,6 +1,7 @@
 """Tuning campaigns on a MAVLink vehicle: settings, directory layout, journal and replay, the runner, restore and
-accept, the report. See :mod:`ksbo_mav.campaign.runner` for the order of flights and
-:mod:`ksbo_mav.campaign.layout` for the files."""
+accept, the report. See :mod:`ksbo_mav.campaign.runner` for the order of flights (and the module of each step),
+:mod:`ksbo_mav.campaign.config` for which value a setting takes and :mod:`ksbo_mav.campaign.layout` for the
+files."""
 
 from ksbo_mav.campaign.access import accept_campaign, restore_snapshot
 from ksbo_mav.campaign.config import CampaignConfig, optimizer_options

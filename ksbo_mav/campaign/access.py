@@ -10,12 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ksbo_mav.campaign.journal import JournalEntry
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.link import Endpoint
-from ksbo_mav.mav.snapshot import Snapshot, load_snapshot, write_param_files
-from ksbo_mav.mav.snapshot import fsync_write
+from ksbo_mav.mav.snapshot import Snapshot, fsync_write, load_snapshot, write_param_files
 from ksbo_mav.mav.stacks import autopilot_updated
 from ksbo_mav.mav.vehicle import Vehicle
 
@@ -60,13 +58,6 @@ def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], 
         v.close()
 
 
-def confirm_failures(confirms: list[JournalEntry]) -> list[str]:
-    """Why the recommended gains should not be left on the vehicle: one line per confirmation flight that was
-    aborted, crashed or scored P < 0 (empty: every confirmation flight completed safely, or there was none)."""
-    return [f"confirmation trial {e.trial}: {e.outcome.text}" if e.outcome != "ok" else
-            f"confirmation trial {e.trial}: P = {e.P:.3f} < 0" for e in confirms if e.outcome != "ok" or e.P < 0]
-
-
 def accept_campaign(path: str | Path, endpoint: Endpoint, log: Callable[[str], None] = print,
                     timeout: float = 15.0, sysid: int | None = None, compid: int | None = None,
                     force: bool = False) -> dict[str, float]:
@@ -84,7 +75,7 @@ def accept_campaign(path: str | Path, endpoint: Endpoint, log: Callable[[str], N
         check_identity(snap, v)
         base = snap.baseline()
         best = {str(n): float(x) for n, x in result["best"]["values"].items()}
-        v.check_trial_gains(v.gains.from_vehicle(best), v.gains.from_vehicle(base))
+        v.check_trial_gains(v.gain_map.from_params(best), v.gain_map.from_params(base))
         v.restore(best)
         write_accepted(d, base, best, v)
         return best

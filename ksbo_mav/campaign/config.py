@@ -1,14 +1,18 @@
-"""A campaign's settings: one typed, validated object, checked before anything connects or is written."""
+"""A campaign's settings: one typed, validated object, checked before anything connects or is written, and
+:func:`resolve`, the one place that decides which value a setting takes when several places give one."""
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from ksbo_mav.errors import InputError
 
 PRIOR_KINDS = ("auto", "sim", "local", "none")
+#: Default prior sizes: simulator episodes (computed, free) and flown local prior trials.
+PRIOR_SIZES = {"sim": 36, "local": 8}
 END_MODES = ("land", "hold")
 #: Settings that may differ on ``--resume`` (they do not change what the optimiser has seen).
 RESUMABLE = ("dir", "accept", "end", "sysid", "compid")
@@ -85,9 +89,37 @@ class CampaignConfig:
         return [k for k in a if k not in RESUMABLE and a[k] != b[k]]
 
 
+def resolve(command_line: Mapping[str, Any] | None = None, stored: Mapping[str, Any] | None = None,
+            profile: Mapping[str, Any] | None = None, default: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Settings by precedence: the command line's, else the stored campaign's (a resume), else what the vehicle
+    profile implies, else the default.
+
+    Each level maps the settings it gives to their values; a setting a level leaves out is decided by the next
+    one. ``None`` is a value (``--option backup_beta=null`` turns the profile's ``backup_beta`` off): callers
+    leave out what was not given."""
+    out: dict[str, Any] = {}
+    for level in (default, profile, stored, command_line):
+        out.update(level or {})
+    return out
+
+
+def prior_kind(cfg: CampaignConfig, profile: Any) -> str:
+    """The prior a campaign flies: ``cfg.prior`` (the command line's or the stored campaign's), for "auto" what
+    the profile implies (simulator episodes for the built-in planar vehicle), else a flown local prior."""
+    return resolve(command_line={} if cfg.prior == "auto" else {"prior": cfg.prior},
+                   profile={"prior": "sim"} if profile is not None and profile.name == "sim-planar" else {},
+                   default={"prior": "local"})["prior"]
+
+
+def prior_size(cfg: CampaignConfig, kind: str) -> int:
+    """Points of a ``kind`` prior: ``cfg.n_prior``, or (0) the kind's :data:`PRIOR_SIZES` default (0 for none)."""
+    return resolve(command_line={"n_prior": cfg.n_prior} if cfg.n_prior else {},
+                   default={"n_prior": PRIOR_SIZES.get(kind, 0)})["n_prior"]
+
+
 #: ``backup_beta`` of ``ksbo-adaptive`` on a profile whose ``[safety] backup_covers_trials`` is true: trials are
-#: certified with β 0.5 instead of 5 while the abort budget lasts (BENCHMARKS.md, issue 13: ArduCopter SITL -60 %
-#: with it, +13 % without; on the planar task, whose tuned gains include the attitude loop, it crashes).
+#: certified with β 0.5 instead of 5 while the abort budget lasts (BENCHMARKS.md: ArduCopter SITL -60 % with it,
+#: +13 % without; on the planar task, whose tuned gains include the attitude loop, it crashes).
 BACKUP_BETA = 0.5
 
 
@@ -127,9 +159,9 @@ def gain_option_indices(user: dict[str, Any], names: list[str] | None) -> dict[s
 
 def optimizer_options(prior_kind: str, user: dict[str, Any], method: str = "", profile: Any = None
                       ) -> dict[str, Any]:
-    """Optimiser keyword options of a tuning campaign: the campaign's defaults, the ``profile``'s for ``method``
-    (:func:`profile_defaults`), then the user's ``user`` (gain names resolved against the ``profile``:
-    :func:`gain_option_indices`).
+    """Optimiser keyword options of a tuning campaign, by :func:`resolve`: the user's ``user`` (command line or
+    stored campaign; gain names resolved against the ``profile``: :func:`gain_option_indices`) over the
+    ``profile``'s for ``method`` (:func:`profile_defaults`) over the campaign's defaults.
 
     Every mission score here is bounded above by 1 (P(a) <= 1; 3-D: 1 - RMS / (2 RMS_baseline)), which is also
     the prior scale of P the benchmark campaign uses; the generic default (2 |P(a0)|) is far too tight. A simulator
@@ -141,4 +173,5 @@ def optimizer_options(prior_kind: str, user: dict[str, Any], method: str = "", p
     if prior_kind == "sim":
         base["explore_from"] = "all"
     names = profile.names if profile is not None else None
-    return {**base, **profile_defaults(method, profile), **gain_option_indices(user, names)}
+    return resolve(command_line=gain_option_indices(user, names), profile=profile_defaults(method, profile),
+                   default=base)

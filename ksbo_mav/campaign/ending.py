@@ -1,11 +1,33 @@
-"""How a campaign leaves the vehicle: baseline gains verified, then landed and disarmed or holding."""
+"""How a campaign leaves the vehicle: the baseline (or, accepted, the best) gains verified, then landed and
+disarmed or holding."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
+from ksbo_mav.campaign.access import write_accepted
+from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.errors import VehicleError
 from ksbo_mav.mav.vehicle import Vehicle
+
+
+def leave_gains(v: Vehicle, d: CampaignDir, accept: bool, base: dict[str, float], best: dict[str, float],
+                failures: list[str], log: Callable[[str], None]) -> bool:
+    """At the end of a campaign: write the ``best`` parameters ({autopilot parameter name: value}) when ``accept``
+    and no confirmation flight failed (``failures``: :func:`~ksbo_mav.campaign.confirm.confirm_failures`), else
+    the baseline ``base``; verified by a fresh read either way. Returns whether the best gains were accepted.
+    Gains that failed a confirmation flight are never left on the vehicle by themselves."""
+    accepted = accept and not failures
+    if accepted:
+        v.restore(best)  # write + fresh read-back of every gain
+        write_accepted(d, base, best, v)
+        log("accepted: best gains written and verified on the vehicle")
+    else:
+        v.restore(base)
+        log("baseline gains restored and verified by a fresh read")
+        if accept:
+            log(f"--accept refused: {'; '.join(failures)} (`ksbo-mav accept {d.root} --force` writes them anyway)")
+    return accepted
 
 
 def safe_stop(v: Vehicle, base: dict[str, float], where: str, log: Callable[[str], None]) -> None:

@@ -1,11 +1,17 @@
-"""The flight plan of a campaign, from the profile and the budget: what airspace it needs, how many flights, how
-long, and how many batteries — printed by ``ksbo-mav tune --dry-run`` (the README's real-flight checklist)."""
+"""The plan of a campaign, printed by ``ksbo-mav tune --dry-run`` (the README's real-flight checklist): the
+vehicle, the settings, the gains and their search ranges, and the flight plan from the profile and the budget (what
+airspace it needs, how many flights, how long, and how many batteries)."""
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
+from ksbo_mav.campaign.config import CampaignConfig, prior_kind, prior_size, profile_defaults
+from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.mav.approach import approach_distance, approach_seconds
+from ksbo_mav.mav.gains import opt_bounds
+from ksbo_mav.mav.vehicle import Vehicle
 from ksbo_mav.profiles import Profile
 
 #: Per trial on top of the figure-8: move to the start and hover there (2 s), the settle with the trial gains,
@@ -13,6 +19,35 @@ from ksbo_mav.profiles import Profile
 OVERHEAD_S = 5.0
 #: Hover time of one battery pack used for the estimate (a typical 5 in - 10 in quad; change it to your own).
 PACK_MIN = 12.0
+
+
+def campaign_plan(v: Vehicle, cfg: CampaignConfig, d: CampaignDir, base: dict[str, float]) -> str:
+    """The whole plan of a campaign with settings ``cfg`` in ``d`` on ``v``, whose baseline is ``base``
+    ({autopilot parameter name: value})."""
+    x0 = v.gain_map.from_params(base)
+    b = opt_bounds(v.profile, x0)
+    rows = [f"  {g.name:<16} {n:<16} now {x:<10.5g} tune in [{lo:.5g}, {hi:.5g}]"
+            for g, n, x, (lo, hi) in zip(v.profile.gains, v.gain_map.param_names, x0, b)]
+    kind = prior_kind(cfg, v.profile)
+    n_prior = prior_size(cfg, kind) if kind == "local" else 0  # flown prior trials
+    return "\n".join([
+        f"vehicle: sysid {v.identity.sysid}, {v.stack.name} {v.identity.firmware}"
+        + (f", {v.gain_map.generation} parameter names" if v.gain_map.generation else ""),
+        f"profile: {v.profile.name}; method {cfg.method}, {cfg.budget} trials "
+        f"(+ prior '{kind}'), seed {cfg.seed}" + options_note(cfg, v.profile),
+        "gains (profile name, vehicle name, current value, optimiser range):", *rows,
+        flight_plan(v.profile, n_prior, cfg.budget, cfg.confirm, cfg.settle_s),
+        f"at the end: {'write the best gains (accept)' if cfg.accept else 'restore the baseline'}, "
+        f"then {cfg.end}",
+        f"logs: {d.trials}, snapshot {d.snapshot_stem.parent}"])
+
+
+def options_note(cfg: CampaignConfig, profile: Any) -> str:
+    """The optimiser options that differ from the method's defaults (the profile's, then the user's)."""
+    implied = profile_defaults(cfg.method, profile)
+    parts = [f"{k}={v} (profile: the backup covers its trials)" for k, v in implied.items() if k not in cfg.options]
+    parts += [f"{k}={v}" for k, v in cfg.options.items()]
+    return f"; options {', '.join(parts)}" if parts else ""
 
 
 def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settle_s: float) -> str:

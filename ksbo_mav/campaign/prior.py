@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.campaign.config import CampaignConfig
+from ksbo_mav.campaign.config import CampaignConfig, prior_size
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.mav.snapshot import fsync_write
 
@@ -27,13 +27,13 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
             return np.array(doc["X"]), np.array(doc["y"])
         from ksbo_mav.objective import SimObjective
 
-        n = cfg.n_prior or 36
+        n = prior_size(cfg, kind)
         X = local_prior_design(n, x0, bounds, cfg.seed, radius=SIM_PRIOR_RADIUS)
         y = SimObjective(profile, seed=cfg.seed).batch(X)
         fsync_write(d.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist()}))
         log(f"prior: {n} simulator episodes around the baseline (in process, nothing flown)")
         return X, y
-    n = cfg.n_prior or 8
+    n = prior_size(cfg, kind)
     X = local_prior_design(n, x0, bounds, cfg.seed)
     y = list(flown)
     for k in range(len(y), n):

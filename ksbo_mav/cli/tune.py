@@ -31,8 +31,13 @@ def add_parser(subparsers) -> None:
                                     "best candidates; on profiles whose backup covers the trials it also explores "
                                     "beyond the certified set), ksbo (the paper's method, no abort cap unless "
                                     "--option max_aborts=N; on the simulated planar task it aborts fewer trials "
+<<<<<<< HEAD
                                     "but, in MAVLink campaigns on the built-in vehicle from random moving starts, its "
                                     "recommendations re-fly lower; BENCHMARKS.md), standard, safeopt, ...")
+=======
+                                    "but its recommendations re-fly lower from the task's moving starts: "
+                                    "BENCHMARKS.md), standard, safeopt, ...")
+>>>>>>> tidy
     p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30); a "
                    "local prior's flights (8) and the confirmation re-flights come on top: --dry-run prints the total")
     p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
@@ -44,9 +49,13 @@ def add_parser(subparsers) -> None:
                    help="optimiser option (repeatable; VALUE is JSON), e.g. --option max_aborts=4. The copter "
                         "profiles ([safety] backup_covers_trials) give ksbo-adaptive backup_beta=0.5: it may fly "
                         "uncertified gains the monitor's backup covers; --option backup_beta=null turns that off "
+<<<<<<< HEAD
                         "(docs/optimizer.md). On the planar vehicle --option chatter_dim=ATT_PIT_D (a gain "
                         "named as the profile names it) steps the pitch D gain down while the flights show its limit "
                         "cycle")
+=======
+                        "(measured in BENCHMARKS.md)")
+>>>>>>> tidy
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
     p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end (not if a "
                    "confirmation flight of them aborted, crashed or scored P < 0: then the baseline is restored and "
@@ -98,13 +107,19 @@ def option_arg(text: str) -> tuple[str, Any]:
 
 
 def config_from_args(args: argparse.Namespace):
-    """The campaign settings, validated (InputError, one line) before anything is connected or written."""
+    """The campaign settings, validated (InputError, one line) before anything is connected or written. What the
+    command line gives wins over the stored campaign's (on --resume) and the defaults
+    (:func:`ksbo_mav.campaign.config.resolve`); on --resume only the settings that do not change what the optimiser
+    has seen may differ."""
     from ksbo_mav.campaign import CampaignConfig, CampaignDir
+    from ksbo_mav.campaign.config import resolve
 
     given: dict[str, Any] = {k: getattr(args, k) for k in _DEFINING if getattr(args, k) is not None}
     if getattr(args, "option", None):
         given["options"] = dict(option_arg(o) for o in args.option)  # they define the campaign too
-    common = {"accept": args.accept, "end": args.end, "sysid": args.sysid, "compid": args.compid}
+    # --end has a default, so it is always given; --accept only turns accepting on.
+    resumable = {"end": args.end, **({"accept": True} if args.accept else {}),
+                 **{k: getattr(args, k) for k in ("sysid", "compid") if getattr(args, k) is not None}}
     if args.resume:
         if args.dir:
             raise InputError("give either DIR (a new campaign) or --resume DIR, not both")
@@ -115,15 +130,11 @@ def config_from_args(args: argparse.Namespace):
         if clash:
             raise InputError(f"--resume {args.resume}: {', '.join(clash)} would change the campaign; resume it "
                              "as it was (or start a new one in another directory)")
-        stored.dir = args.resume
-        stored.accept = stored.accept or args.accept
-        stored.end = args.end
-        stored.sysid = args.sysid if args.sysid is not None else stored.sysid
-        stored.compid = args.compid if args.compid is not None else stored.compid
-        return stored.validate()
+        return CampaignConfig(**resolve(command_line={"dir": args.resume, **resumable},
+                                        stored=stored.to_dict())).validate()
     if not args.dir:
         raise InputError("give a campaign directory DIR (or --resume DIR)")
-    cfg = CampaignConfig(dir=args.dir, **given, **common).validate()
+    cfg = CampaignConfig(**resolve(command_line={"dir": args.dir, **given, **resumable})).validate()
     if not args.dry_run and CampaignDir.at(args.dir).exists():
         raise InputError(f"{args.dir} already holds a campaign; use --resume {args.dir} or another directory")
     return cfg

@@ -10,5 +10,9 @@
 * :mod:`~ksbo_mav.mav.monitor` — in-flight safety monitor;
 * :mod:`~ksbo_mav.mav.mission` — figure-8 setpoint streaming (one trial);
 * :mod:`~ksbo_mav.mav.vehicle` — preflight, whitelisted writes, restore: the vehicle as the tuner sees it;
+* :mod:`~ksbo_mav.mav.trial_flight` — flying one trial and restoring the baseline (:class:`TrialFlight`);
+* :mod:`~ksbo_mav.mav.trial_record` — scoring a flown trial and writing its record;
 * :mod:`~ksbo_mav.mav.objective` — :class:`MavlinkObjective`, the vehicle behind the objective interface.
+
+Their error types live in :mod:`ksbo_mav.errors`.
 """

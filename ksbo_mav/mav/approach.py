@@ -3,8 +3,8 @@
 The paper's task (fact sheet part C, :func:`ksbo_sim.episode.random_initial_states`) starts every episode at the
 figure-8 origin with a random velocity v0 ~ U(0, 1) m/s in a random direction of the x-z plane. A MAVLink trial
 that starts from a settled hover scores only one of those starts, and gains that are bistable - fine from rest,
-diverging from some moving starts - look good in every trial, re-flight and confirmation of a campaign (issue 13,
-item AD: recommendations confirmed at 0.79-0.88 from hover re-flew at 0.34-0.41 from the task's starts).
+diverging from some moving starts - look good in every trial, re-flight and confirmation of a campaign
+(measured: recommendations confirmed at 0.79-0.88 from hover re-flew at 0.34-0.41 from the task's starts).
 
 With ``[mission] start_speed_mps`` > 0 each trial draws its start velocity ``u`` (seeded by the campaign seed and
 the trial number, so a resumed campaign flies the same starts) and flies an *approach* with the trial's gains

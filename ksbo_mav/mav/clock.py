@@ -6,7 +6,7 @@ the vehicle, estimates how fast vehicle time runs against the wall clock (the sp
 messages, so setpoints can be paced on vehicle time even when telemetry arrives slowly or in bursts.
 
 Waits (:meth:`VehicleClock.wait`) are measured on this clock. Their wall-clock guard is derived from it: a vehicle
-whose clock stops advancing for ``stall_s`` wall seconds is lost (:class:`~ksbo_mav.mav.vehicle.LinkLost`), and no
+whose clock stops advancing for ``stall_s`` wall seconds is lost (:class:`~ksbo_mav.errors.LinkLost`), and no
 wait runs longer than its vehicle time at the slowest plausible rate (``min_rate``) plus ``stall_s``.
 """
 
@@ -16,11 +16,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from ksbo_mav.errors import VehicleError
-
-
-class ClockStalled(VehicleError):
-    """The vehicle's clock did not advance for longer than the stall timeout (no timestamped telemetry)."""
+from ksbo_mav.errors import ClockStalled, VehicleError
 
 
 class VehicleClock:

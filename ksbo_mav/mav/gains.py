@@ -36,24 +36,13 @@ def opt_bounds(profile: Profile, baseline: np.ndarray) -> np.ndarray:
     return np.column_stack([lo, hi])
 
 
-class Gains:
-    """The profile's gains on one vehicle (``map`` translates gain vectors to vehicle parameters)."""
+class GainService:
+    """The profile's gains on one vehicle: gain vectors (d,) in the profile's order and units are checked and
+    written; ``{autopilot parameter name: value}`` dicts (a baseline, accepted gains) are written and verified.
+    ``gain_map`` translates between the two."""
 
     def __init__(self, params: ParamClient, profile: Profile, gain_map: GainMap) -> None:
-        self.params, self.profile, self.map = params, profile, gain_map
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """Vehicle parameter names of the tuned gains."""
-        return self.map.vehicle
-
-    def values(self) -> np.ndarray:
-        """Gain vector from the downloaded table (no traffic)."""
-        return self.map.from_vehicle({n: self.params.table[n].value for n in self.map.vehicle})
-
-    def read(self) -> np.ndarray:
-        """Gain vector from a fresh read of every tuned parameter."""
-        return self.map.from_vehicle({n: self.params.read(n) for n in self.map.vehicle})
+        self.params, self.profile, self.gain_map = params, profile, gain_map
 
     def check_trial(self, x: np.ndarray, baseline: np.ndarray) -> np.ndarray:
         """Absolute box of the profile and the trust region around the baseline; InputError otherwise."""
@@ -76,25 +65,27 @@ class Gains:
         return np.clip(x, lo, hi)
 
     def write(self, x: np.ndarray) -> None:
-        """Set-and-verify every tuned parameter (callers check bounds first)."""
-        for name, value in self.map.to_vehicle(x).items():
+        """Set-and-verify the parameters of the gain vector ``x`` (d,) (callers check bounds first)."""
+        for name, value in self.gain_map.to_params(x).items():
             self.params.set_verified(name, value)
 
-    def write_values(self, values: dict[str, float], retries: int = 3) -> None:
-        for name, value in values.items():
-            if name not in self.map.vehicle:
+    def write_params(self, params: dict[str, float], retries: int = 3) -> None:
+        """Set-and-verify ``{autopilot parameter name: value}``; InputError for a parameter that is not tuned."""
+        for name, value in params.items():
+            if name not in self.gain_map.param_names:
                 raise InputError(f"{name} is not one of the tuned parameters; refusing to write it")
             self.params.set_verified(name, value, retries=retries)
 
-    def restore(self, values: dict[str, float], attempts: int = 3, retries: int = 8) -> None:
-        """Write the baseline and confirm it with a fresh read of every parameter; VehicleError if impossible.
+    def restore(self, params: dict[str, float], attempts: int = 3, retries: int = 8) -> None:
+        """Write ``{autopilot parameter name: value}`` (a baseline) and confirm it with a fresh read of every
+        parameter; VehicleError if impossible.
 
         More retries than a trial write: a restore is the one write that must get through a lossy link."""
         last: Exception | None = None
         for _ in range(attempts):
             try:
-                self.write_values(values, retries=retries)
-                wrong = [n for n, v in values.items()
+                self.write_params(params, retries=retries)
+                wrong = [n for n, v in params.items()
                          if not np.isclose(self.params.read(n, retries=retries), v, rtol=1e-6, atol=1e-7)]
                 if not wrong:
                     return

@@ -23,8 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.errors import VehicleError
-from ksbo_mav.mav.clock import ClockStalled
+from ksbo_mav.errors import ClockStalled, LinkLost, PreflightError, VehicleError
 from ksbo_mav.mav.commands import CMD_ARM, CMD_TAKEOFF, Commander, refusal
 from ksbo_mav.mav.link import Link
 from ksbo_mav.mav.mission import FRAME_LOCAL_NED, MASK_POS, MASK_POS_VEL_ACC
@@ -34,14 +33,6 @@ from ksbo_mav.mav.telemetry import Telemetry
 CMD_SIM_STEP = 31011  # built-in simulator, lockstep: advance p1 seconds
 KEEPALIVE_S = 0.05  # wall seconds between re-sent hold targets
 PRESTREAM_S = 1.5  # vehicle seconds of setpoints before asking PX4 for OFFBOARD (it wants > 1 s)
-
-
-class LinkLost(VehicleError):
-    """No heartbeat / telemetry from the vehicle for longer than the profile's timeout."""
-
-
-class PreflightError(VehicleError):
-    """Arming, takeoff or positioning failed: nothing to do with the gains being tuned."""
 
 
 class Guided:

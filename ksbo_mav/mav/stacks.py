@@ -3,7 +3,7 @@
 The vehicle says which stack it runs (HEARTBEAT.autopilot, AUTOPILOT_VERSION vendor/product); the parameter list
 says which *name generation* of that stack (ArduPilot renamed and rescaled ``PSC_*`` in PR #31513, fact sheet
 3.1). Profiles name their gains in the newest generation and SI units; :class:`GainMap` translates a gain vector
-to the parameters of the vehicle at hand (``vehicle value = canonical value / scale``) and back, so every stack
+to the parameters of the vehicle at hand (``parameter value = gain value / scale``) and back, so every stack
 and generation maps to the *same* gain vector. Anything unknown is refused rather than guessed.
 """
 
@@ -162,17 +162,17 @@ def canonical_name(name: str) -> str:
 
 @dataclass(frozen=True)
 class GainMap:
-    """Profile gains (canonical names, SI units) <-> the vehicle's parameters.
+    """Profile gains (canonical names, SI units; a gain vector) <-> the autopilot's parameters ({name: value}).
 
     Attributes:
-        canonical: profile gain names, in the profile's order.
-        vehicle: the matching vehicle parameter names.
-        scale: ``canonical value = vehicle value * scale``.
+        gain_names: profile gain names, in the profile's order.
+        param_names: the matching autopilot parameter names.
+        scale: ``gain value = parameter value * scale``.
         generation: "new", "legacy" (ArduPilot) or "" (other stacks).
     """
 
-    canonical: tuple[str, ...]
-    vehicle: tuple[str, ...]
+    gain_names: tuple[str, ...]
+    param_names: tuple[str, ...]
     scale: tuple[float, ...]
     generation: str = ""
 
@@ -186,7 +186,7 @@ class GainMap:
         """
         generation = ardupilot_generation(params) if stack is ARDUPILOT else ""
         extras = {g.name: g.extra for g in profile.gains} if profile is not None else {}
-        vehicle, scale = [], []
+        param_names, scale = [], []
         for name in profile_names:
             vname, s = name, 1.0
             if generation == "legacy":
@@ -198,17 +198,17 @@ class GainMap:
             if vname not in params:
                 raise VehicleError(f"the vehicle has no parameter {vname} (profile gain {name}); "
                                    "wrong profile for this vehicle?")
-            vehicle.append(vname)
+            param_names.append(vname)
             scale.append(s)
-        return cls(tuple(profile_names), tuple(vehicle), tuple(scale), generation)
+        return cls(tuple(profile_names), tuple(param_names), tuple(scale), generation)
 
-    def to_vehicle(self, x: np.ndarray) -> dict[str, float]:
-        """Gain vector -> {vehicle name: vehicle value}."""
+    def to_params(self, x: np.ndarray) -> dict[str, float]:
+        """Gain vector (d,) -> {autopilot parameter name: parameter value}."""
         x = np.asarray(x, dtype=float)
-        if x.shape != (len(self.canonical),):
-            raise InputError(f"expected {len(self.canonical)} gains, got shape {x.shape}")
-        return {v: float(xi) / s for v, xi, s in zip(self.vehicle, x, self.scale)}
+        if x.shape != (len(self.gain_names),):
+            raise InputError(f"expected {len(self.gain_names)} gains, got shape {x.shape}")
+        return {v: float(xi) / s for v, xi, s in zip(self.param_names, x, self.scale)}
 
-    def from_vehicle(self, values: Mapping[str, float]) -> np.ndarray:
-        """{vehicle name: value} -> gain vector."""
-        return np.array([float(values[v]) * s for v, s in zip(self.vehicle, self.scale)])
+    def from_params(self, params: Mapping[str, float]) -> np.ndarray:
+        """{autopilot parameter name: value} -> gain vector (d,)."""
+        return np.array([float(params[p]) * s for p, s in zip(self.param_names, self.scale)])

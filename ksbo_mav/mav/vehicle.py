@@ -5,7 +5,8 @@ parameter download, the profile's gain map (refusing profiles meant for another 
 (SET_MESSAGE_INTERVAL only: nothing stored on the vehicle changes). The services:
 
 * ``params`` (:class:`~ksbo_mav.mav.params.ParamClient`) — the parameter protocol;
-* ``tuning`` (:class:`~ksbo_mav.mav.gains.Gains`) — trial gain writes inside the trust region, verified restores;
+* ``tuning`` (:class:`~ksbo_mav.mav.gains.GainService`) — trial gain writes inside the trust region, verified
+  restores;
 * ``telemetry`` (:class:`~ksbo_mav.mav.telemetry.Telemetry`) — latest state, vehicle clock, rates, packet loss;
 * ``guided`` (:class:`~ksbo_mav.mav.guided.Guided`) — arming, takeoff, holds, landing, setpoint streaming.
 """
@@ -19,8 +20,8 @@ import numpy as np
 
 from ksbo_mav.errors import InputError, VehicleError
 from ksbo_mav.mav.commands import Commander
-from ksbo_mav.mav.gains import Gains, trust_region
-from ksbo_mav.mav.guided import Guided, LinkLost, PreflightError
+from ksbo_mav.mav.gains import GainService
+from ksbo_mav.mav.guided import Guided
 from ksbo_mav.mav.link import Endpoint, Link
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.params import ParamClient
@@ -29,19 +30,18 @@ from ksbo_mav.mav.telemetry import Telemetry
 from ksbo_mav.mav.wire import mavlink
 from ksbo_mav.profiles import Profile, load_profile
 
-__all__ = ["Vehicle", "LinkLost", "PreflightError", "trust_region"]
-
-
 class Vehicle:
     def __init__(self, link: Link, stack: Stack, identity: Identity, params: ParamClient, cmd: Commander,
-                 profile: Profile, gains: GainMap) -> None:
+                 profile: Profile, gain_map: GainMap) -> None:
         self.link, self.stack, self.identity = link, stack, identity
-        self.params, self.cmd, self.profile, self.gains = params, cmd, profile, gains
+        self.params, self.cmd, self.profile = params, cmd, profile
+        #: Profile gain vector <-> autopilot parameters ({name: value}) of this vehicle.
+        self.gain_map = gain_map
         self.mission = Mission.from_profile(profile)
         self.is_sim = "SIM_LOCKSTEP" in params.table
         self.lockstep = self.is_sim and params.table["SIM_LOCKSTEP"].value == 1
         self.heartbeat_timeout = float(profile.safety.heartbeat_timeout_s)  # the one source of this timeout
-        self.tuning = Gains(params, profile, gains)
+        self.tuning = GainService(params, profile, gain_map)
         self.telemetry = Telemetry(link, cmd, self.mission.rate_hz)
         self.guided = Guided(link, cmd, stack, self.telemetry, self.heartbeat_timeout, self.lockstep)
 
@@ -73,8 +73,8 @@ class Vehicle:
             want = str(prof.vehicle.get("autopilot", ""))
             if want and want != stack.name:
                 raise InputError(f"profile {prof.name} is for autopilot {want!r}, the vehicle runs {stack.name}")
-            gains = GainMap.build(prof.names, stack, table, prof)
-            return cls(link, stack, ident, params, cmd, prof, gains)
+            gain_map = GainMap.build(prof.names, stack, table, prof)
+            return cls(link, stack, ident, params, cmd, prof, gain_map)
         except BaseException:
             link.close()
             raise
@@ -97,23 +97,15 @@ class Vehicle:
     def last_lpn(self) -> Any:
         return self.telemetry.last_lpn
 
-    def gain_values(self) -> np.ndarray:
-        return self.tuning.values()
-
-    def read_gains(self) -> np.ndarray:
-        return self.tuning.read()
-
     def check_trial_gains(self, x: np.ndarray, baseline: np.ndarray) -> np.ndarray:
         return self.tuning.check_trial(x, baseline)
 
     def write_gains(self, x: np.ndarray) -> None:
         self.tuning.write(x)
 
-    def write_values(self, values: dict[str, float], retries: int = 3) -> None:
-        self.tuning.write_values(values, retries)
-
-    def restore(self, values: dict[str, float], attempts: int = 3, retries: int = 8) -> None:
-        self.tuning.restore(values, attempts, retries)
+    def restore(self, params: dict[str, float], attempts: int = 3, retries: int = 8) -> None:
+        """Write ``{autopilot parameter name: value}`` and verify it by a fresh read."""
+        self.tuning.restore(params, attempts, retries)
 
     def ensure_airborne(self, log: Callable[[str], None] = lambda s: None, at: np.ndarray | None = None) -> None:
         """Hovering at the figure-8 start (or ``at``, NED: a moving start's approach) in guided/offboard (takes off

@@ -1,0 +1,77 @@
+"""The trial loop of a campaign: every flown trial journalled before anyone sees its value, trials spoiled by this
+computer or the link flown again, and the baseline flight every score is measured against."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ksbo_mav.campaign.journal import Journal, JournalEntry
+from ksbo_mav.campaign.summary import TrialEvent
+from ksbo_mav.errors import TrialInterrupted, TrialStopped, VehicleError
+from ksbo_mav.mav.objective import MavlinkObjective
+from ksbo_mav.objective import Flight
+from ksbo_mav.opt.outcome import Evaluation
+
+#: How often a trial spoiled by this computer or the link (TrialOutcome.retry) is flown again.
+RETRIES = 2
+
+
+class TrialLoop:
+    """Flies trials through ``objective`` and journals each one; ``progress`` hears of every journalled trial."""
+
+    def __init__(self, objective: MavlinkObjective, journal: Journal, progress: Callable[[TrialEvent], None],
+                 log: Callable[[str], None]) -> None:
+        self.objective, self.journal, self.progress, self.log = objective, journal, progress, log
+
+    def fly(self, x: np.ndarray, kind: str, stress: bool = False) -> Flight:
+        """One trial of journal ``kind``, journalled; flown again (up to :data:`RETRIES` times) when this computer
+        or the link spoiled it. :class:`TrialStopped` for a trial that must end the campaign."""
+        for attempt in range(RETRIES + 1):
+            try:
+                return self._fly_once(x, kind, stress)
+            except TrialStopped as exc:
+                outcome = exc.flight.outcome
+                if not outcome.retry or attempt == RETRIES:
+                    raise
+                self.log(f"trial {exc.flight.meta['trial']} not counted ({exc.flight.meta['message']}); "
+                         "flying it again")
+        raise AssertionError("unreachable")
+
+    def _fly_once(self, x: np.ndarray, kind: str, stress: bool) -> Flight:
+        journal = self.journal
+        try:
+            f = self.objective.fly(x, label=kind, stress=stress)
+        except (TrialStopped, TrialInterrupted) as exc:
+            f = exc.flight
+            if not journal.has_trial(f.meta["trial"]):
+                # A crash of a real vehicle is the gains' doing; anything else that stops a trial is not.
+                journal.append(JournalEntry.of(kind if f.outcome == "crash" else "failed", f))
+            raise
+        journal.append(JournalEntry.of(kind, f))
+        self.progress(TrialEvent.of(kind, f, journal))
+        return f
+
+    def evaluate(self, x: np.ndarray, stress: bool = False) -> Evaluation:
+        """An optimiser evaluation: a flown trial, with the monitor's aborts and crashes as censored outcomes
+        (``stress``: from the hardest start, for the re-fly phase's ``refly_stress``)."""
+        f = self.fly(x, "opt", stress)
+        return Evaluation(f.P, f.outcome.evaluation)
+
+    def fly_baseline(self, x0: np.ndarray) -> int:
+        """Fly the baseline gains first (answered from the journal when the optimiser asks for x0): every 3-D
+        score is relative to this flight's tracking (:meth:`ksbo_mav.mav.mission.Mission.score`). Returns its
+        trial number; VehicleError if the baseline flew unsafe."""
+        opt = self.journal.of("opt")
+        if not opt:
+            self.log("trial: baseline gains (the reference every score is measured against)")
+            f = self.fly(x0, "opt")
+            opt = self.journal.of("opt")
+            if f.P < 0 or f.outcome != "ok":
+                raise VehicleError(f"the baseline gains flew unsafe (P = {f.P:.3f}, {f.outcome.text}: "
+                                   f"{f.meta.get('message') or 'see the trial record'}); safe BO needs a safe start: "
+                                   "fix the gains or the mission/safety settings first (baseline restored)")
+        if self.objective.mission.kind != "figure8-xz":
+            self.objective.rms_ref = opt[0].rms
+        return opt[0].trial
