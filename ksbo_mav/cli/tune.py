@@ -31,13 +31,8 @@ def add_parser(subparsers) -> None:
                                     "best candidates; on profiles whose backup covers the trials it also explores "
                                     "beyond the certified set), ksbo (the paper's method, no abort cap unless "
                                     "--option max_aborts=N; on the simulated planar task it aborts fewer trials "
-<<<<<<< HEAD
                                     "but, in MAVLink campaigns on the built-in vehicle from random moving starts, its "
                                     "recommendations re-fly lower; BENCHMARKS.md), standard, safeopt, ...")
-=======
-                                    "but its recommendations re-fly lower from the task's moving starts: "
-                                    "BENCHMARKS.md), standard, safeopt, ...")
->>>>>>> tidy
     p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30); a "
                    "local prior's flights (8) and the confirmation re-flights come on top: --dry-run prints the total")
     p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
@@ -49,13 +44,7 @@ def add_parser(subparsers) -> None:
                    help="optimiser option (repeatable; VALUE is JSON), e.g. --option max_aborts=4. The copter "
                         "profiles ([safety] backup_covers_trials) give ksbo-adaptive backup_beta=0.5: it may fly "
                         "uncertified gains the monitor's backup covers; --option backup_beta=null turns that off "
-<<<<<<< HEAD
-                        "(docs/optimizer.md). On the planar vehicle --option chatter_dim=ATT_PIT_D (a gain "
-                        "named as the profile names it) steps the pitch D gain down while the flights show its limit "
-                        "cycle")
-=======
-                        "(measured in BENCHMARKS.md)")
->>>>>>> tidy
+                        "(docs/optimizer.md)")
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
     p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end (not if a "
                    "confirmation flight of them aborted, crashed or scored P < 0: then the baseline is restored and "
