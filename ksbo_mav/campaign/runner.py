@@ -301,7 +301,7 @@ class Campaign:
         try:
             from ksbo_mav.campaign.report import write_report
 
-            summary.plots = write_report(self.dir, v.profile)
+            summary.plots = write_report(self.dir, v.profile, summary.to_dict())
         except Exception as exc:  # a plotting problem must never hide the tuning result
             self.log(f"report plots failed: {exc}")
         fsync_write(self.dir.result, json.dumps(summary.to_dict(), indent=1))
