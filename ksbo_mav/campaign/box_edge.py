@@ -47,9 +47,6 @@ class EdgeHit:
         head = f"{self.name} = {self.value:.4g} is at the {self.side} bound {self.bound:.4g} of the search box"
         support = (f"; {self.near_best} of the {self.n_near} best flights sit on this edge too"
                    if self.n_near and self.near_best else "")
-        if self.at_limit and self.side == "lower" and self.bound == 0:
-            return (f"{head}, which is the profile's lower limit{support}: the tuner prefers this gain off or "
-                    "nearly off")
         if self.at_limit:
             return (f"{head}, which is the profile's {self.side} limit{support}: the search cannot go past it; if "
                     f"the gain should go further, check the autopilot's documented range and change the profile's "
@@ -66,7 +63,8 @@ def edge_hits(x: Sequence[float], bounds: np.ndarray, names: Sequence[str], *, t
 
     ``limits`` (d, 2): the profile's own gain limits, to tell the trust region's edge from the profile's.
     ``near_best`` (m, d): points known to be good and safe near the top (flown, or certified by the posterior);
-    each hit counts how many of them sit on the same edge. A gain whose box has no width is never a hit.
+    each hit counts how many of them sit on the same edge. A gain whose box has no width is never a hit, nor is one
+    at a profile's lower limit of 0 (a gain switched off: no gain lies below it).
     Hits are in gain order, lower edge before upper.
     """
     x = np.asarray(x, dtype=float).reshape(-1)
@@ -83,10 +81,13 @@ def edge_hits(x: Sequence[float], bounds: np.ndarray, names: Sequence[str], *, t
             continue
         margin = tol * width
         for side, edge, close in (("lower", lo, lambda v: v <= lo + margin), ("upper", hi, lambda v: v >= hi - margin)):
-            if close(x[i]):
-                hits.append(EdgeHit(name=str(name), value=float(x[i]), side=side, bound=float(edge),
-                                    limit=None if lim is None else float(lim[i, 0 if side == "lower" else 1]),
-                                    near_best=int(sum(close(v) for v in near[:, i])), n_near=len(near)))
+            if not close(x[i]):
+                continue
+            hit = EdgeHit(name=str(name), value=float(x[i]), side=side, bound=float(edge),
+                          limit=None if lim is None else float(lim[i, 0 if side == "lower" else 1]),
+                          near_best=int(sum(close(v) for v in near[:, i])), n_near=len(near))
+            if not (hit.at_limit and side == "lower" and edge == 0):  # a gain cannot go below 0: no cap there
+                hits.append(hit)
     return hits
 
 
