@@ -202,3 +202,63 @@ def test_plot_frames_follow_the_missions_task_states():
     s = task_state("figure8-xz", np.array([1.0, 0.0, -3.0, 0.0, 0.0, 0.0]), att)
     (h, h_label), (v, v_label) = FRAMES["figure8-xz"]["plan"]
     assert (s[h], s[v]) == (1.0, 3.0) and "north" in h_label and "up" in v_label
+
+
+def _set_on_sim(sim, **params: float) -> None:
+    """Set simulator parameters over a second connection (as a second ground station would)."""
+    from ksbo_mav.mav.link import Endpoint
+    from ksbo_mav.mav.vehicle import Vehicle
+
+    other = Vehicle.connect(Endpoint("udpout", "127.0.0.1", sim.port), "sim-planar", sysid=250, compid=190)
+    try:
+        for name, value in params.items():
+            other.params.set_verified(name, value, retries=8)
+    finally:
+        other.close()
+
+
+def _verdict(page: str) -> str:
+    return page[page.index("Verdict"):page.index("<h2>Plots")]
+
+
+def test_a_crashed_confirmation_is_counted_and_the_verdict_says_not_confirmed(tmp_path):
+    """The vehicle really crashes as the confirmation's gains are written (SIM_CRASH_WRITES, set once the last
+    optimiser trial is journalled): the page counts it as the console does and shows the safety plot."""
+    from ksbo_mav.campaign import Campaign, CampaignConfig
+
+    d = tmp_path / "c"
+    with sim_and_endpoint() as (sim, ep):
+        cfg = CampaignConfig(dir=str(d), budget=3, seed=1, prior="none", end="hold")
+
+        def crash_next(event) -> None:
+            if event.kind == "opt" and event.n_opt == cfg.budget:
+                _set_on_sim(sim, SIM_CRASH_WRITES=1.0)
+
+        summary = Campaign(cfg, ep, log=lambda s: None, progress=crash_next).run()
+    assert summary.n_crashed == 1 and summary.plots["safety"] != "none"
+    verdict = _verdict(_page(d))
+    assert "Not confirmed: confirmation trial" in verdict
+    assert (f"unsafe (P &lt; 0) {summary.n_unsafe}, aborted by the monitor {summary.n_aborted}, crashed 1, "
+            f"interrupted (not the gains) {summary.n_failed}") in verdict
+    crashed = [e["trial"] for e in _journal(d) if e["outcome"] == "crash"]
+    assert re.search(rf'<tr class="crash"><td>{crashed[0]}</td><td class="l">confirmation</td>', _page(d))
+
+
+def test_report_of_an_interrupted_campaign_shows_the_trials_so_far(tmp_path, capsys):
+    """The pilot takes over during the baseline trial: the campaign stops without a result; `ksbo-mav report`
+    still writes the page, says the campaign is unfinished and counts the interrupted trial."""
+    from ksbo_mav.campaign import Campaign, CampaignConfig
+    from ksbo_mav.errors import VehicleError
+
+    d = tmp_path / "c"
+    with sim_and_endpoint() as (sim, ep):
+        _set_on_sim(sim, SIM_FAULT_AFTER=5.0, SIM_PILOT_MODE=5)
+        with pytest.raises(VehicleError, match="pilot"):
+            Campaign(CampaignConfig(dir=str(d), budget=3, seed=0, prior="none", end="hold"), ep,
+                     log=lambda s: None).run()
+    assert not (d / "result.json").exists()
+    assert main(["report", str(d)]) == 0
+    assert "report: " in capsys.readouterr().out
+    verdict = _verdict(_page(d))
+    assert "Unfinished campaign" in verdict and "interrupted (not the gains) 1" in verdict
+    assert '<td class="l">interrupted (pilot' in _page(d)

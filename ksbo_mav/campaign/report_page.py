@@ -17,7 +17,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ksbo_mav.campaign.box_edge import EdgeHit
-from ksbo_mav.campaign.trial_rows import CampaignRecord, TrialRow
+from ksbo_mav.campaign.trial_rows import SAFETY, CampaignRecord, TrialRow
 
 #: Plots in the order the page shows them, with their captions.
 PLOTS = (
@@ -66,7 +66,7 @@ def spread(values: Sequence[float]) -> str:
 def headline(rec: CampaignRecord, result: dict[str, Any] | None) -> str:
     """One sentence: did the tracking improve, by how much, against the re-flight noise."""
     base = [r.rms for r in rec.of("baseline", "baseline re-flight") if r.entry.outcome == "ok" and r.rms is not None]
-    conf = [r for r in rec.of("confirmation")]
+    conf = rec.of("confirmation")
     done = [r.rms for r in conf if r.entry.outcome == "ok" and r.rms is not None]
     failures = (result or {}).get("best", {}).get("confirm_failures") or []
     if failures:
@@ -82,30 +82,31 @@ def headline(rec: CampaignRecord, result: dict[str, Any] | None) -> str:
     noise = max(repeated)[0] if repeated else None
     spread_of = ", ".join(f"{n} {name} flights" for _, n, name in repeated)
     change = (after - before) / before if before > 0 else 0.0
-    verb = "down" if after < before else "up"
-    text = f"Lap RMS tracking error {verb} {abs(change):.0%}: {before:.3f} m → {after:.3f} m"
+    pct = f"{abs(change):.1%}" if abs(change) < 0.1 else f"{abs(change):.0%}"
+    values = f"{before:.3f} m → {after:.3f} m"
     if noise is None:
-        return text + " (single flights: re-fly to measure the noise)"
-    within = abs(after - before) <= noise
-    return text + (f", {'within' if within else 'beyond'} the re-flight noise (spread {noise:.3f} m over "
-                   f"{spread_of})")
+        return (f"Lap RMS tracking error {'down' if after < before else 'up'} {pct}: {values} (single flights: "
+                "re-fly to measure the noise)")
+    spread_note = f"spread {noise:.3f} m over {spread_of}"
+    if abs(after - before) <= noise:
+        return f"Lap RMS tracking error unchanged within the re-flight noise: {values} ({spread_note})"
+    return (f"Lap RMS tracking error {'down' if after < before else 'up'} {pct}: {values}, beyond the re-flight "
+            f"noise ({spread_note})")
 
 
 def counts(rec: CampaignRecord) -> dict[str, int]:
     """Safety counted four ways, as the console counts them."""
-    rows = rec.rows
-    return {"unsafe (P < 0)": sum(r.kind == "opt" and r.P < 0 for r in rows),
-            "aborted by the monitor": sum(r.entry.outcome.gain_caused and r.entry.outcome != "crash" for r in rows),
-            "crashed": sum(r.entry.outcome == "crash" for r in rows),
-            "interrupted (not the gains)": sum(r.kind == "failed" for r in rows)}
+    return {label: sum(label in r.safety for r in rec.rows) for label in SAFETY}
 
 
 def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Sequence[EdgeHit]) -> list[tuple[str, str]]:
     """(label, XHTML) rows of the verdict box; a new fact (e.g. batteries) is one more row."""
     rows: list[tuple[str, str]] = []
     base = [r.rms for r in rec.of("baseline", "baseline re-flight") if r.entry.outcome == "ok"]
-    conf = [r.rms for r in rec.of("confirmation") if r.entry.outcome == "ok"]
-    after = spread(conf) if conf else "the recommendation was not re-flown"
+    flown = rec.of("confirmation")
+    conf = [r.rms for r in flown if r.entry.outcome == "ok"]
+    after = (spread(conf) if conf else f"no completed confirmation flight ({len(flown)} flown)" if flown
+             else "the recommendation was not re-flown")
     rows.append(("Lap RMS error", f"{esc(spread(base))} &#8594; {esc(after)}"))
     if result:
         best = result["best"]

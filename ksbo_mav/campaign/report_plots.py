@@ -14,7 +14,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ksbo_mav.campaign.box_edge import EdgeHit
-from ksbo_mav.campaign.trial_rows import CampaignRecord, TrialRow
+from ksbo_mav.campaign.trial_rows import SAFETY, CampaignRecord, TrialRow
 from ksbo_mav.plotting import pyplot
 
 #: Marker style of each class of trial: (legend label, matplotlib keyword arguments).
@@ -94,13 +94,7 @@ def plot_convergence(rec: CampaignRecord, path: Path) -> str:
 def plot_safety(rec: CampaignRecord, path: Path) -> str | None:
     """Cumulative unsafe / aborted / crashed / interrupted counts; None (no file) when all four stay zero."""
     rows = rec.rows
-    counts = {
-        "unsafe (P < 0)": [r.kind == "opt" and r.P < 0 for r in rows],
-        "aborted by the monitor (recovered)": [r.entry.outcome.gain_caused and r.entry.outcome != "crash"
-                                               for r in rows],
-        "crashed": [r.entry.outcome == "crash" for r in rows],
-        "interrupted (not the gains)": [r.kind == "failed" for r in rows],
-    }
+    counts = {label: [label in r.safety for r in rows] for label in SAFETY}
     if not any(any(v) for v in counts.values()):
         return None
     plt = pyplot()
@@ -115,6 +109,8 @@ def plot_gains(rec: CampaignRecord, best: np.ndarray | None, limits: np.ndarray 
                path: Path) -> str:
     """One panel per gain: its value in every flown trial, the search box (shaded), the profile's limits
     (dashed), the baseline (dotted) and the recommendation (green); a gain on a box edge has a red title."""
+    from matplotlib.ticker import MaxNLocator
+
     plt = pyplot()
     d = len(rec.names)
     cols = 3 if d > 4 else 2 if d > 1 else 1
@@ -142,6 +138,7 @@ def plot_gains(rec: CampaignRecord, best: np.ndarray | None, limits: np.ndarray 
         hit = on_edge.get(name)
         ax.set_title(name + (f"  (at the {hit.side} bound)" if hit else ""), fontsize=9,
                      color="C3" if hit else "k")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.tick_params(labelsize=8)
         ax.grid(alpha=0.3)
     for ax in axes.flat[d:]:

@@ -16,6 +16,8 @@ import numpy as np
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.layout import CampaignDir
 
+#: The four ways safety is counted (never lumped together).
+SAFETY = ("unsafe (P < 0)", "aborted by the monitor", "crashed", "interrupted (not the gains)")
 #: Role of each journal kind when nothing more specific applies.
 ROLE = {"opt": "optimiser", "prior": "prior", "confirm": "confirmation", "failed": "interrupted"}
 
@@ -41,6 +43,15 @@ class TrialRow:
     @property
     def P(self) -> float:
         return self.entry.P
+
+    @property
+    def safety(self) -> tuple[str, ...]:
+        """Which of :data:`SAFETY` this trial counts in, as the console counts: an optimiser trial the monitor
+        aborted is also unsafe (its P < 0, as in the paper); a confirmation with P < 0 is not an unsafe search."""
+        o = self.entry.outcome
+        return tuple(label for label, flag in zip(SAFETY, (
+            self.kind == "opt" and self.P < 0, o.gain_caused and o != "crash", o == "crash", self.kind == "failed"))
+            if flag)
 
     @property
     def outcome_text(self) -> str:
