@@ -261,4 +261,4 @@ def test_report_of_an_interrupted_campaign_shows_the_trials_so_far(tmp_path, cap
     assert "report: " in capsys.readouterr().out
     verdict = _verdict(_page(d))
     assert "Unfinished campaign" in verdict and "interrupted (not the gains) 1" in verdict
-    assert '<td class="l">interrupted (pilot' in _page(d)
+    assert '<td class="l o">interrupted (pilot' in _page(d)

@@ -33,7 +33,7 @@ h1 { font-size: 1.4em; } h2 { font-size: 1.15em; margin-top: 1.6em; border-botto
 table { border-collapse: collapse; font-size: 0.8em; } .wide { overflow-x: auto; }
 .headline { font-weight: bold; font-size: 1.1em; margin: 0.2em 0 0.6em 0; }
 td, th { padding: 0.15em 0.45em; border-bottom: 1px solid #e4e4e4; text-align: right; white-space: nowrap; }
-th { background: #f2f2f2; } td.l, th.l { text-align: left; }
+th { background: #f2f2f2; } td.l, th.l { text-align: left; } td.o { white-space: normal; min-width: 14em; }
 .verdict { background: #f5f9ff; border: 1px solid #b8cde8; padding: 0.6em 1em; }
 .verdict th { background: none; text-align: left; vertical-align: top; }
 .verdict td { text-align: left; white-space: normal; }
@@ -164,7 +164,7 @@ def trial_table(rec: CampaignRecord) -> str:
         cls = _row_class(r)
         out.append(f'<tr{f" class={chr(34)}{cls}{chr(34)}" if cls else ""}><td>{r.trial}</td>'
                    f'<td class="l">{esc(r.role)}</td><td>{esc(_num(r.P, "+.4f"))}</td>'
-                   f'<td>{esc(_num(r.rms, ".3f"))}</td><td class="l">{esc(r.outcome_text)}</td>{gains}</tr>')
+                   f'<td>{esc(_num(r.rms, ".3f"))}</td><td class="l o">{esc(r.outcome_text)}</td>{gains}</tr>')
     out.append("</table>")
     return "\n".join(out)
 

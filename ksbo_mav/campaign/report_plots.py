@@ -57,11 +57,18 @@ def _interrupted(ax: Any, rows: Sequence[TrialRow], label: bool = True) -> None:
                    label="interrupted (not the gains)" if label and n == 0 else None)
 
 
-def _finish(plt: Any, fig: Any, ax: Any, title: str, ylabel: str, path: Path) -> str:
-    """Label a per-trial axis (integer trial numbers), save the figure to ``path`` and close it."""
+def _trial_axis(ax: Any, rows: Sequence[TrialRow]) -> None:
+    """Integer trial numbers, every flown trial in view (an interrupted one at the edge too)."""
     from matplotlib.ticker import MaxNLocator
 
-    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
+    if rows:
+        ax.set_xlim(rows[0].trial - 0.5, rows[-1].trial + 0.5)
+
+
+def _finish(plt: Any, fig: Any, ax: Any, rows: Sequence[TrialRow], title: str, ylabel: str, path: Path) -> str:
+    """Label a per-trial axis, save the figure to ``path`` and close it."""
+    _trial_axis(ax, rows)
     ax.set_xlabel("trial (as numbered on the console)")
     ax.set_ylabel(ylabel)
     ax.set_title(title)
@@ -88,7 +95,7 @@ def plot_convergence(rec: CampaignRecord, path: Path) -> str:
         ax.axhline(opt[0].P, color="0.5", ls="--", lw=1, label=f"baseline P (trial {opt[0].trial})")
     _interrupted(ax, rec.rows)
     ax.axhline(0.0, color="C3", lw=0.8, label="P = 0 (safety threshold)")
-    return _finish(plt, fig, ax, "Convergence: every flown trial", "P", path)
+    return _finish(plt, fig, ax, rec.rows, "Convergence: every flown trial", "P", path)
 
 
 def plot_safety(rec: CampaignRecord, path: Path) -> str | None:
@@ -99,18 +106,24 @@ def plot_safety(rec: CampaignRecord, path: Path) -> str | None:
         return None
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(9, 3.2), constrained_layout=True)
-    t = [r.trial for r in rows]
-    for label, flags in counts.items():
-        ax.step(t, np.cumsum(flags), where="post", label=label)
-    return _finish(plt, fig, ax, "Safety", "cumulative count", path)
+    # From zero before the first trial to the count after the last, so that a single trial draws a step too.
+    t = [rows[0].trial - 0.5] + [r.trial for r in rows] + [rows[-1].trial + 0.5]
+    for n, (label, flags) in enumerate(counts.items()):
+        if any(flags):  # a class that stays at zero is named in the title instead of hiding under the others
+            y = np.cumsum([0, *flags])
+            ax.step(t, [*y, y[-1]], where="post", label=f"{label}: {y[-1]}", color=f"C{n}", lw=1.5)
+    zero = [label for label, flags in counts.items() if not any(flags)]
+    title = "Safety" + (f"; zero: {', '.join(zero)}" if zero else "")
+    from matplotlib.ticker import MaxNLocator
+
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+    return _finish(plt, fig, ax, rows, title, "cumulative count", path)
 
 
 def plot_gains(rec: CampaignRecord, best: np.ndarray | None, limits: np.ndarray | None, hits: Sequence[EdgeHit],
                path: Path) -> str:
     """One panel per gain: its value in every flown trial, the search box (shaded), the profile's limits
     (dashed), the baseline (dotted) and the recommendation (green); a gain on a box edge has a red title."""
-    from matplotlib.ticker import MaxNLocator
-
     plt = pyplot()
     d = len(rec.names)
     cols = 3 if d > 4 else 2 if d > 1 else 1
@@ -138,7 +151,7 @@ def plot_gains(rec: CampaignRecord, best: np.ndarray | None, limits: np.ndarray 
         hit = on_edge.get(name)
         ax.set_title(name + (f"  (at the {hit.side} bound)" if hit else ""), fontsize=9,
                      color="C3" if hit else "k")
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        _trial_axis(ax, rec.rows)
         ax.tick_params(labelsize=8)
         ax.grid(alpha=0.3)
     for ax in axes.flat[d:]:
