@@ -120,8 +120,6 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
         held = "the tuned gains (accepted)" if result.get("accepted") else "the baseline gains (restored)"
         rows.append(("Vehicle holds", esc(held + (f"; --accept refused: {result['accept_refused']}"
                                                   if result.get("accept_refused") else ""))))
-    else:
-        rows.append(("Result", "the campaign has not finished (no result.json): trials so far"))
     by_role: dict[str, int] = {}
     for r in rec.rows:
         role = "re-flight" if r.role.startswith("re-flight") else r.role
@@ -162,7 +160,8 @@ def trial_table(rec: CampaignRecord) -> str:
     for r in rec.rows:
         gains = "".join(f"<td>{esc(_num(r.values[n]))}</td>" for n in rec.names)
         cls = _row_class(r)
-        out.append(f'<tr{f" class={chr(34)}{cls}{chr(34)}" if cls else ""}><td>{r.trial}</td>'
+        attr = f' class="{cls}"' if cls else ""
+        out.append(f'<tr{attr}><td>{r.trial}</td>'
                    f'<td class="l">{esc(r.role)}</td><td>{esc(_num(r.P, "+.4f"))}</td>'
                    f'<td>{esc(_num(r.rms, ".3f"))}</td><td class="l o">{esc(r.outcome_text)}</td>{gains}</tr>')
     out.append("</table>")

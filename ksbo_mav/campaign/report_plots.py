@@ -36,9 +36,9 @@ def style_key(row: TrialRow) -> str:
     o = row.entry.outcome
     if o == "crash":
         return "crashed"
-    if o != "ok":
+    if o.gain_caused:
         return "aborted"
-    if row.P < 0:
+    if o != "ok" or row.P < 0:
         return "unsafe"
     return "re-flight" if row.role.startswith("re-flight") else row.role if row.role in STYLES else "optimiser"
 

@@ -55,13 +55,15 @@ class TrialRow:
 
     @property
     def outcome_text(self) -> str:
-        """completed / aborted by the monitor / crashed / interrupted, with the outcome's code."""
+        """completed / aborted by the monitor / crashed / interrupted / ended early, with the outcome's text."""
         o = self.entry.outcome
         if self.kind == "failed":
             return f"interrupted ({o.text}; not the gains)"
         if o == "ok":
             return "completed" + ("; P < 0" if self.P < 0 else "")
-        return "crashed" if o == "crash" else f"aborted by the monitor ({o.text})"
+        if o == "crash":
+            return "crashed"
+        return f"aborted by the monitor ({o.text})" if o.gain_caused else f"ended early ({o.text})"
 
 
 @dataclass(frozen=True)
