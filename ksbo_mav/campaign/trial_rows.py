@@ -124,8 +124,11 @@ def _role(e: JournalEntry, x0: np.ndarray, flown: list[JournalEntry]) -> str:
 
 
 def _rms(e: JournalEntry) -> float | None:
-    """Lap-2 RMS position error: journalled for 3-D missions, recomputed from the tlog for the planar one."""
-    if e.rms is not None or e.outcome != "ok" or e.kind == "failed":
+    """Lap-2 RMS position error: journalled for 3-D missions, recomputed from the tlog for the planar one; none for
+    an interrupted trial (its flight says nothing about the gains, e.g. setpoints sent late)."""
+    if e.kind == "failed":
+        return None
+    if e.rms is not None or e.outcome != "ok":
         return e.rms
     try:
         traj, info = trajectory(e.record)
