@@ -18,7 +18,9 @@ def add_parser(subparsers) -> None:
         description="Connects, snapshots every parameter to DIR before any write, takes off if the vehicle is on "
                     "the ground, flies the baseline gains and then figure-8 trials chosen by safe Bayesian "
                     "optimisation with kernel selection, restores the baseline gains (unless --accept) and lands "
-                    "(unless --end hold). Ctrl-C aborts the current trial, restores the baseline and lands. "
+                    "(unless --end hold), and writes a report page DIR/report/index.html (verdict, plots, every trial; "
+                    "`ksbo-mav report DIR` rewrites it). Ctrl-C aborts the current trial, restores the baseline and "
+                    "lands. "
                     "Every option is checked before anything is connected or written; --dry-run prints the "
                     "flight plan (airspace, flights, batteries) and changes nothing.")
     p.add_argument("dir", nargs="?", metavar="DIR", help="campaign directory (new)")
