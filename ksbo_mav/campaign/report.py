@@ -1,92 +1,114 @@
-"""Campaign report: convergence, safety and before/after trajectory plots from a campaign directory.
+"""Campaign report: plots and one self-contained page (report/index.html) from a campaign directory.
 
-Everything is read back from disk (journal, trial records, tlogs), so the report can be regenerated after the
-fact and shows what was logged, not what the tuner believed in memory. Trial numbers are the ones the console
-printed (0-based, every flown trial counted).
+Everything is read back from disk (settings, journal, trial records, tlogs), so the report can be regenerated
+after the fact (``ksbo-mav report DIR``) and shows what was logged, not what the tuner believed in memory. Trial
+numbers are the ones the console printed (0-based, every flown trial counted: baseline, prior, optimiser,
+confirmation and interrupted trials alike).
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ksbo_mav.campaign.journal import Journal
+from ksbo_mav.campaign.box_edge import EdgeHit, edge_hits
 from ksbo_mav.campaign.layout import CampaignDir
-from ksbo_mav.plotting import pyplot
+from ksbo_mav.campaign.report_plots import plot_convergence, plot_gains, plot_safety
+from ksbo_mav.campaign.trial_rows import CampaignRecord, read_campaign, trajectory
+
+#: How many of the best flown trials back up (or not) a box-edge note.
+NEAR_BEST = 5
 
 
-def _trajectory(record: str) -> Any:
-    from ksbo_mav.mav.tlog import read_tlog
-    from ksbo_mav.mav.trajectory import trajectory_from_tlog
-
-    return trajectory_from_tlog(read_tlog(Path(record).with_suffix(".tlog")))[0]
-
-
-def _finish(plt: Any, fig: Any, ax: Any, title: str, ylabel: str, path: Path) -> str:
-    """Label a per-trial axis (integer trial numbers), save the figure to ``path`` and close it."""
-    from matplotlib.ticker import MaxNLocator
-
-    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    ax.set_xlabel("trial (as numbered on the console)")
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return str(path)
+def load_result(d: CampaignDir) -> dict[str, Any] | None:
+    """result.json, or None while the campaign has not finished."""
+    try:
+        return json.loads(d.result.read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
 
 
-def write_report(d: CampaignDir | str | Path, profile: Any) -> dict[str, str]:
-    """Write report/convergence.png, report/safety.png (only when a trial was unsafe or aborted) and
-    report/trajectory.png; returns {name: path}, plus {"safety": "none"} when there was nothing to plot."""
+def campaign_profile(settings: dict[str, Any]) -> Any | None:
+    """The profile the campaign flew (the file it named, else the detected one); None if it cannot be loaded."""
+    from ksbo_mav.errors import KsboError
+    from ksbo_mav.profiles import load_profile
+
+    try:
+        return load_profile(settings["config"].get("profile") or settings["profile"])
+    except (KsboError, OSError, KeyError, AttributeError):
+        return None
+
+
+def box_edges(rec: CampaignRecord, best_x: Any, profile: Any | None) -> list[EdgeHit]:
+    """Where the recommendation ``best_x`` (optimiser units) touches the search box, in the vehicle's units."""
+    limits = profile.bounds / rec.scale[:, None] if profile is not None and profile.dim == len(rec.names) else None
+    good = sorted((r for r in rec.rows if r.kind in ("opt", "prior") and r.entry.outcome == "ok" and r.P >= 0),
+                  key=lambda r: -r.P)[:NEAR_BEST]
+    near = np.array([[r.values[n] for n in rec.names] for r in good]).reshape(-1, len(rec.names))
+    return edge_hits(rec.to_vehicle(best_x), rec.bounds, rec.names, limits=limits, near_best=near)
+
+
+def box_edge_lines(d: CampaignDir | str | Path, result: dict[str, Any] | None = None) -> list[str]:
+    """The box-edge notes of a finished campaign, one line each (none when the recommendation is inside)."""
+    d = d if isinstance(d, CampaignDir) else CampaignDir.at(d)
+    result = result if result is not None else load_result(d)
+    if not result:
+        return []
+    rec = read_campaign(d, rms=False)
+    return [h.message() for h in box_edges(rec, result["best"]["x"], campaign_profile(rec.settings))]
+
+
+def _trajectory_plot(rec: CampaignRecord, path: Path) -> str | None:
+    """Baseline against the last completed confirmation flight, in the mission's frame."""
+    from ksbo_mav.plotting import plot_trajectories, scored_span
+
+    base = [r for r in rec.of("baseline") if r.entry.outcome == "ok"]
+    tuned = [r for r in rec.of("confirmation") if r.entry.outcome == "ok"]
+    if not base or not tuned:
+        return None
+    flights = [(base[0], "baseline"), (tuned[-1], "tuned")]
+    trajs, labels, info = [], [], {}
+    for row, name in flights:
+        traj, info = trajectory(row.entry.record)
+        trajs.append(traj)
+        rms = f", lap RMS {row.rms:.3f} m" if row.rms is not None else ""
+        labels.append(f"{name}, trial {row.trial} (P={row.P:.3f}{rms})")
+    kind = info["kind"]
+    view = "north / east, seen from above" if kind == "figure8-ne" else "north / up, seen from the side"
+    return str(plot_trajectories(trajs, labels, path, title=f"Figure-8 over MAVLink, before / after ({view})",
+                                 kind=kind, scored=scored_span(info)))
+
+
+def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[str, Any] | None = None
+                 ) -> dict[str, str]:
+    """Write the report's plots and its page under ``d``/report; returns {name: path}.
+
+    Plots: convergence.png, gains.png, trajectory.png (when the baseline and a confirmation flight completed) and
+    safety.png (only when a trial was unsafe, aborted, crashed or interrupted; else {"safety": "none"}); the page
+    index.html embeds them. ``result``: the campaign's summary (default: result.json); ``profile``: the vehicle
+    profile (default: the one the campaign names), for the profile's own gain limits.
+    """
+    from ksbo_mav.campaign.report_page import write_page
+
     d = d if isinstance(d, CampaignDir) else CampaignDir.at(d)
     d.report.mkdir(parents=True, exist_ok=True)
-    journal = Journal(d.journal)
-    opt = journal.of("opt")
-    confirm = journal.of("confirm")
-    plt = pyplot()
-    paths: dict[str, str] = {}
-
-    n = np.array([e.trial for e in opt])
-    P = np.array([e.P for e in opt])
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
-    if len(P):
-        ok = np.array([e.outcome == "ok" and e.P >= 0 for e in opt])
-        ax.plot(n[ok], P[ok], "o", ms=4, label="optimiser trial")
-        if (~ok).any():
-            ax.plot(n[~ok], P[~ok], "x", color="C3", label="unsafe (P < 0) / aborted")
-        ax.plot(n, np.maximum.accumulate(P), "-", color="k", lw=1.2, label="best so far")
-        ax.axhline(P[0], color="0.5", ls="--", lw=1, label=f"baseline (trial {n[0]})")
-    if confirm:
-        ax.plot([e.trial for e in confirm], [e.P for e in confirm], "D", color="C2", ms=6,
-                label="confirmation of the recommendation")
-    ax.axhline(0.0, color="C3", lw=0.8, label="P = 0 (safety threshold)")
-    paths["convergence"] = _finish(plt, fig, ax, "Convergence", "P", d.report / "convergence.png")
-
-    flown = journal.entries
-    bad = [e for e in flown if e.P < 0 or e.outcome != "ok"]
-    if bad:
-        fig, ax = plt.subplots(figsize=(7, 3.2), constrained_layout=True)
-        t = np.array([e.trial for e in flown])
-        ax.step(t, np.cumsum([e.kind == "opt" and e.P < 0 for e in flown]), where="post", label="unsafe (P < 0)")
-        ax.step(t, np.cumsum([e.outcome.gain_caused and e.outcome != "crash" for e in flown]), where="post",
-                label="aborted by the monitor (recovered)")
-        ax.step(t, np.cumsum([e.outcome == "crash" for e in flown]), where="post", label="crashed")
-        ax.step(t, np.cumsum([e.kind == "failed" for e in flown]), where="post", label="failed (not the gains)")
-        paths["safety"] = _finish(plt, fig, ax, "Safety", "cumulative count", d.report / "safety.png")
-    else:
-        paths["safety"] = "none"  # no unsafe, aborted or failed trial: nothing to plot
-
-    ok_confirm = [e for e in confirm if e.outcome == "ok"]
-    if opt and opt[0].outcome == "ok" and ok_confirm:
-        from ksbo_mav.plotting import plot_trajectories
-
-        trajs = [_trajectory(opt[0].record), _trajectory(ok_confirm[-1].record)]
-        labels = [f"baseline, trial {opt[0].trial} (P={opt[0].P:.3f})",
-                  f"tuned, trial {ok_confirm[-1].trial} (P={ok_confirm[-1].P:.3f})"]
-        paths["trajectory"] = str(plot_trajectories(trajs, labels, d.report / "trajectory.png",
-                                                    title="Figure-8 over MAVLink: before / after"))
+    rec = read_campaign(d)
+    result = result if result is not None else load_result(d)
+    profile = profile if profile is not None else campaign_profile(rec.settings)
+    best_x = result["best"]["x"] if result else None
+    hits = box_edges(rec, best_x, profile) if best_x is not None else []
+    limits = profile.bounds / rec.scale[:, None] if profile is not None and profile.dim == len(rec.names) else None
+    paths: dict[str, str] = {
+        "convergence": plot_convergence(rec, d.report / "convergence.png"),
+        "gains": plot_gains(rec, None if best_x is None else rec.to_vehicle(best_x), limits, hits,
+                            d.report / "gains.png"),
+    }
+    traj = _trajectory_plot(rec, d.report / "trajectory.png")
+    if traj:
+        paths["trajectory"] = traj
+    paths["safety"] = plot_safety(rec, d.report / "safety.png") or "none"
+    paths["page"] = str(write_page(d.report / "index.html", rec, result, hits, paths))
     return paths

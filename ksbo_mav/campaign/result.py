@@ -54,7 +54,7 @@ def write_result(d: CampaignDir, summary: CampaignSummary, profile: Any, log: Ca
     try:
         from ksbo_mav.campaign.report import write_report
 
-        summary.plots = write_report(d, profile)
+        summary.plots = write_report(d, profile, summary.to_dict())
     except Exception as exc:  # a plotting problem must never hide the tuning result
         log(f"report plots failed: {exc}")
     fsync_write(d.result, json.dumps(summary.to_dict(), indent=1))

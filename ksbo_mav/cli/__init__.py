@@ -14,8 +14,8 @@ import sys
 from ksbo_mav.errors import KsboError
 
 #: Command modules, in the order `--help` lists them.
-COMMANDS: tuple[str, ...] = ("evaluate", "sim", "prior", "select", "tune", "score", "compare", "restore", "accept",
-                             "demo")
+COMMANDS: tuple[str, ...] = ("evaluate", "sim", "prior", "select", "tune", "report", "score", "compare", "restore",
+                             "accept", "demo")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -157,9 +157,10 @@ def _run_trial(args: argparse.Namespace) -> int:
         except InputError as exc:
             segments = {"error": str(exc)}
     if args.plot:
-        from ksbo_mav.plotting import plot_trajectories
+        from ksbo_mav.plotting import plot_trajectories, scored_span
 
-        plot_trajectories([traj], [f"flown (P={score['P']:.4f})"], args.plot, title=str(args.log))
+        plot_trajectories([traj], [f"flown (P={score['P']:.4f})"], args.plot, title=str(args.log), kind=rec.kind,
+                          scored=scored_span(info))
     if args.json:
         print(to_json({"tlog": args.log, "score": score, "trial": info, "analysis": segments or None}))
         return 0

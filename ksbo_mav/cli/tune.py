@@ -18,7 +18,9 @@ def add_parser(subparsers) -> None:
         description="Connects, snapshots every parameter to DIR before any write, takes off if the vehicle is on "
                     "the ground, flies the baseline gains and then figure-8 trials chosen by safe Bayesian "
                     "optimisation with kernel selection, restores the baseline gains (unless --accept) and lands "
-                    "(unless --end hold). Ctrl-C aborts the current trial, restores the baseline and lands. "
+                    "(unless --end hold), and writes a report page DIR/report/index.html (verdict, plots, every trial; "
+                    "`ksbo-mav report DIR` rewrites it). Ctrl-C aborts the current trial, restores the baseline and "
+                    "lands. "
                     "Every option is checked before anything is connected or written; --dry-run prints the "
                     "flight plan (airspace, flights, batteries) and changes nothing.")
     p.add_argument("dir", nargs="?", metavar="DIR", help="campaign directory (new)")
@@ -140,13 +142,21 @@ def print_summary(s: Any, log) -> None:
         f"{s.n_crashed}, failed for reasons unrelated to the gains {s.n_failed}; {s.wall_s:.0f} s")
     for name, v in t["values"].items():
         log(f"  {name:<16} {b['values'][name]:>12.6g} -> {v:<12.6g}")
+    from ksbo_mav.campaign.report import box_edge_lines
+
+    for line in box_edge_lines(s.dir, s.to_dict()):
+        log(f"search box: {line}")
     held = ("the best gains (accepted)" if s.accepted else "the baseline gains (restored, verified"
             + (f"; --accept refused: {s.accept_refused})" if s.accept_refused else ")"))
     log("vehicle holds: " + held
         + {"landed": "; landed and disarmed", "holding": "; hovering (--end hold)"}.get(s.ended, ""))
     log(f"logs: {s.dir}/trials  journal: {s.dir}/journal.jsonl  result: {s.dir}/result.json")
     for name, path in s.plots.items():
-        log(f"plot ({name}): {path}" if path != "none" else f"plot ({name}): none - no unsafe, aborted or failed trial")
+        if name != "page":
+            log(f"plot ({name}): {path}" if path != "none" else f"plot ({name}): none - no unsafe, aborted or failed "
+                "trial")
+    if s.plots.get("page"):
+        log(f"report: {s.plots['page']}")
 
 
 def run(args: argparse.Namespace) -> int:
