@@ -57,7 +57,7 @@ def campaign_vehicle(sitl, d: Path, out: str) -> Iterator[tuple[MavlinkObjective
     try:
         v.setup_streams()
         base = snap.baseline()
-        yield MavlinkObjective(v, base, d / out, first_index=0), v.gains.from_vehicle(base)
+        yield MavlinkObjective(v, base, d / out, first_index=0), v.gain_map.from_params(base)
         v.land()
     finally:
         v.close()
