@@ -48,7 +48,7 @@ def box_edges(rec: CampaignRecord, best_x: Any, profile: Any | None) -> list[Edg
     good = sorted((r for r in rec.rows if r.kind in ("opt", "prior") and r.entry.outcome == "ok" and r.P >= 0),
                   key=lambda r: -r.P)[:NEAR_BEST]
     near = np.array([[r.values[n] for n in rec.names] for r in good]).reshape(-1, len(rec.names))
-    return edge_hits(rec.to_vehicle(best_x), rec.bounds, rec.names, limits=limits, near_best=near)
+    return edge_hits(rec.to_params(best_x), rec.bounds, rec.names, limits=limits, near_best=near)
 
 
 def box_edge_lines(d: CampaignDir | str | Path, result: dict[str, Any] | None = None) -> list[str]:
@@ -103,7 +103,7 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     limits = profile.bounds / rec.scale[:, None] if profile is not None and profile.dim == len(rec.names) else None
     paths: dict[str, str] = {
         "convergence": plot_convergence(rec, d.report / "convergence.png"),
-        "gains": plot_gains(rec, None if best_x is None else rec.to_vehicle(best_x), limits, hits,
+        "gains": plot_gains(rec, None if best_x is None else rec.to_params(best_x), limits, hits,
                             d.report / "gains.png"),
     }
     traj = _trajectory_plot(rec, d.report / "trajectory.png")

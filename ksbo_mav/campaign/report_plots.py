@@ -131,7 +131,7 @@ def plot_gains(rec: CampaignRecord, best: np.ndarray | None, limits: np.ndarray 
     fig, axes = plt.subplots(nrows, cols, figsize=(4.1 * cols, 2.5 * nrows + 0.6), constrained_layout=True,
                              squeeze=False)
     groups = _by_style(rec.rows)
-    base = rec.to_vehicle(rec.x0)
+    base = rec.to_params(rec.x0)
     on_edge = {h.name: h for h in hits}
     for i, name in enumerate(rec.names):
         ax = axes.flat[i]

@@ -84,7 +84,7 @@ class CampaignRecord:
     def x0(self) -> np.ndarray:
         return np.asarray(self.settings["x0"], dtype=float)
 
-    def to_vehicle(self, x: Any) -> np.ndarray:
+    def to_params(self, x: Any) -> np.ndarray:
         return np.asarray(x, dtype=float) / self.scale
 
     def of(self, *roles: str) -> list[TrialRow]:
