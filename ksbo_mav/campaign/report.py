@@ -98,7 +98,7 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     rec = read_campaign(d)
     result = result if result is not None else load_result(d)
     profile = profile if profile is not None else campaign_profile(rec.settings)
-    best_x = result["best"]["x"] if result else None
+    best_x = ((result or {}).get("best") or {}).get("x")  # none when the campaign recommended nothing
     hits = box_edges(rec, best_x, profile) if best_x is not None else []
     limits = profile.bounds / rec.scale[:, None] if profile is not None and profile.dim == len(rec.names) else None
     paths: dict[str, str] = {
