@@ -12,7 +12,8 @@ from ksbo_mav.campaign.summary import CampaignSummary
 
 def _summary(d: CampaignDir) -> CampaignSummary:
     return CampaignSummary(baseline={"P": 0.2, "values": {"POS_X_P": 0.15}},
-                           best={"P_model": 0.8, "values": {"POS_X_P": 0.16}, "x": [0.16]}, accepted=False, on_vehicle={"POS_X_P": 0.15},
+                           best={"P_model": 0.8, "values": {"POS_X_P": 0.16}, "x": [0.16]},
+                           accepted=False, on_vehicle={"POS_X_P": 0.15},
                            n_trials=0, n_unsafe=0, n_aborted=0, n_crashed=0, n_failed=0, method="ksbo-adaptive",
                            orders=None, wall_s=1.0, dir=str(d.root), ended="")
 
