@@ -1,4 +1,4 @@
-"""The JSBSim 3-D copter as an in-process objective (issue 13's plant suite): fly a gain vector, return P and how
+"""The JSBSim 3-D copter as an in-process objective (a benchmark plant): fly a gain vector, return P and how
 the flight ended.
 
 It scores exactly like a MAVLink campaign on the same vehicle profile (``ardupilot-copter`` or ``px4-copter``):

@@ -1,17 +1,18 @@
-"""Exception types that the CLI turns into one-line messages and a non-zero exit code."""
+"""Exception types that the CLI turns into one-line messages and a non-zero exit code.
 
-from typing import TYPE_CHECKING
+This module imports nothing of the package (every layer, the optimiser core included, raises these); the
+simulator's own errors (:mod:`ksbo_sim.errors`) are printed the same way by the CLI.
+"""
 
-from ksbo_sim.errors import SimInputError
+from typing import Any
 
 
 class KsboError(Exception):
     """Base class of every error the user can cause or fix (bad input, unreachable vehicle, ...)."""
 
 
-class InputError(KsboError, SimInputError):
-    """Malformed or out-of-range input: gains, files, arguments (a ValueError, and a
-    :class:`ksbo_sim.errors.SimInputError` so one ``except`` covers the simulator's input errors too)."""
+class InputError(KsboError, ValueError):
+    """Malformed or out-of-range input: gains, files, arguments (a ValueError)."""
 
 
 class VehicleError(KsboError):
@@ -30,24 +31,21 @@ class PreflightError(VehicleError):
     """Arming, takeoff or positioning failed: nothing to do with the gains being tuned."""
 
 
-if TYPE_CHECKING:
-    from ksbo_mav.objective import Flight
-
-
 class TrialStopped(VehicleError):
     """A trial was aborted for a reason that must stop the campaign (pilot, link, crash of a real vehicle);
-    ``flight`` is its recorded result."""
+    ``flight`` is its recorded result (a :class:`ksbo_mav.objective.Flight`)."""
 
-    def __init__(self, message: str, flight: "Flight") -> None:
+    def __init__(self, message: str, flight: Any) -> None:
         super().__init__(message)
         self.flight = flight
 
 
 class TrialInterrupted(KeyboardInterrupt):
     """Ctrl-C during a trial, raised once the trial is recorded (its baseline restored unless a second Ctrl-C
-    stopped that); ``flight`` is its recorded result. A KeyboardInterrupt: whatever stops on Ctrl-C stops here."""
+    stopped that); ``flight`` is its recorded result (a :class:`ksbo_mav.objective.Flight`). A KeyboardInterrupt:
+    whatever stops on Ctrl-C stops here."""
 
-    def __init__(self, flight: "Flight") -> None:
+    def __init__(self, flight: Any) -> None:
         super().__init__("interrupted by the user")
         self.flight = flight
 

@@ -15,7 +15,6 @@ import numpy as np
 from ksbo_mav.errors import InputError
 from ksbo_mav.profiles import Profile, load_profile
 from ksbo_mav.scoring import Score, ScoreConfig, score, score_rollout
-from ksbo_mav.symptoms import rate_symptoms
 from ksbo_sim.episode import (REASONS, EpisodeConfig, MonitorConfig, Rollout, fixed_initial_states,
                               random_initial_states, simulate, stress_initial_state)
 from ksbo_sim.monitor import Outcome
@@ -144,17 +143,11 @@ class SimObjective:
 
         init = random_initial_states(1, self.rng, self.episode) if init is None else np.atleast_2d(init)
         r = self.rollout(np.atleast_2d(x), init)
-        return Evaluation(float(score_rollout(r, self.score_config).P[0]), r.outcomes[0], self.symptoms(r)[0])
-
-    def symptoms(self, rollout: Rollout) -> list[dict[str, float]]:
-        """What each episode of ``rollout`` showed beyond its score (:func:`ksbo_mav.symptoms.rate_symptoms` of
-        the pitch rate over the scored lap), one dict per episode."""
-        lo, hi = self.score_config.window
-        return [rate_symptoms(rollout.states[k, lo + 1 : hi + 1, 5]) for k in range(rollout.states.shape[0])]
+        return Evaluation(float(score_rollout(r, self.score_config).P[0]), r.outcomes[0])
 
     def rollout(self, X: np.ndarray, init: np.ndarray) -> Rollout:
         """The episodes (trajectories, outcomes) of gains X (n, d) from ``init`` (n, 6), in one batch: for
-        :meth:`trial` and diagnostics that need more than the scores (scripts/diag_symptom_slices.py)."""
+        :meth:`trial` and diagnostics that need more than the scores."""
         X = np.atleast_2d(self.profile.check_gains(np.asarray(X, dtype=float), within_box=False))
         self.n_episodes += X.shape[0]
         return self._simulate(X, np.atleast_2d(init), self.episode)

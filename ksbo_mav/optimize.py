@@ -50,7 +50,7 @@ def optimize(
         bounds: (d, 2) lower/upper bounds (lower < upper); the methods work in the unit cube of this box.
         budget: number of calls of ``fun`` (≥ 1), x0's included; the prior is not counted.
         method: one of ``ksbo`` (kernel-selected safe BO), ``ksbo-adaptive`` (ksbo with a learned safety scale,
-            trust region, abort cap ``max_aborts``, re-flown recommendation and order re-selection; issue 13),
+            trust region, abort cap ``max_aborts``, re-flown recommendation and order re-selection),
             ``standard`` (safe BO, orders 1 + d), ``safeopt``
             (SafeOpt rule, SE-ARD GP), ``linebo`` (safe LineBO), ``ucb``, ``ei`` (unconstrained BO), ``random``.
         prior: optional ``(X (m, d), y (m,))`` evaluations already made (physical units); used by the model and by

@@ -52,9 +52,6 @@ VARIANTS: dict[str, tuple[str, dict]] = {
                            "unsafe_scale_shrink": 1.0}),
     # The paper's once-only kernel selection (ksbo now re-selects by evidence every 10 iterations).
     "ksbo-once": ("ksbo", {"reselect_every": 0}),
-    # β calibrated on the run's one-step-ahead errors (opt.calibration): floor 4, widened after a flight far below
-    # its prediction (an option, not a default; benchmarks/notes/plants.md).
-    "ksbo-calib": ("ksbo", {"beta_min": 4.0}),
     # The local safety GP's lengthscale of safeopt (0.07 instead of 0.05): reaches the basins the learnt safety scale
     # reaches in the paper setting (an option, not a default; benchmarks/notes/plants.md).
     # Fixed local safety lengthscales: 0.05 is ksbo's before 2026-12-01, 0.06 and 0.07 were measured

@@ -1,5 +1,5 @@
-"""Exception types of the simulator package. ``ksbo_sim`` never imports ``ksbo_mav``: the tuner's own errors
-(``ksbo_mav.errors.InputError``) subclass these, and its CLI prints either kind as one line."""
+"""Exception types of the simulator package. ``ksbo_sim`` never imports ``ksbo_mav``; the tuner's CLI prints these
+as one line, like its own errors."""
 
 
 class SimError(Exception):

@@ -28,8 +28,6 @@ def _load(name: str):
                                               ("bench_plants.py", "report"), ("diag/oracle_ray.py", "--plot"),
                                               ("diag/monitor_backup.py", "--n"),
                                               ("diag/gain_slices.py", "--plot"),
-                                              ("diag_symptom_slices.py", "--plot"),
-                                              ("diag_lipschitz_aborts.py", "--starts"),
                                               ("bench_tune_campaign.py", "--write"),
                                               ("benchmarks_page.py", "--check")])
 def test_bench_scripts_start(script, flag):
@@ -115,20 +113,3 @@ def test_gain_slices_show_the_pitch_d_cliff_of_pitch_inertia_x05():
     ep, fail = slices("iyy x0.5", [8], np.array([0.0, 0.075, 0.25]))[8]
     assert ep[1] > 0.8 and ep[2] < 0.4 and fail[1] == 0 == fail[2]
     assert fail[0] == 8 and ep[0] < 0
-
-
-def test_symptom_slices_see_the_limit_cycle_and_not_the_noise():
-    """diag_symptom_slices: at a0's pitch D gain the nominal plant's rate holds a line (the limit
-    cycle) that stops lower down, where the score is higher; 3x sensor noise raises the chatter ratio but makes no
-    line. The in-process trial reports the same symptoms as the batch of rollouts."""
-    from ksbo_mav.objective import SimObjective
-
-    slice_ = _load("diag_symptom_slices").symptom_slice
-    nominal = slice_("nominal", np.array([0.15, 0.25]), 8)
-    assert nominal["line"][1, 0] > 0.8 and nominal["line"][0, 1] < 0.1 and nominal["ep"][0] > nominal["ep"][1]
-    noise = slice_("noise x3", np.array([0.25]), 8)
-    assert noise["chatter"][0] > 1.0 and noise["line"][0, 1] < 0.5
-    obj = SimObjective(monitor=True)
-    init = np.array([0.0, 0.3, 1.0, -0.2, 0.0, 0.0])
-    batch = obj.symptoms(obj.rollout(obj.profile.default[None], init[None]))[0]
-    assert obj.trial(obj.profile.default, init).symptoms == batch

@@ -1,4 +1,4 @@
-"""Issue 7: connection options, an unresponsive vehicle, and `tune --dry-run` (changes nothing)."""
+"""Connection options, an unresponsive vehicle, and `tune --dry-run` (changes nothing)."""
 
 from __future__ import annotations
 

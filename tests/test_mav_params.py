@@ -1,4 +1,4 @@
-"""Issue 7: parameter encodings and the stack / name-generation mapping (unit tests on parameter tables)."""
+"""Parameter encodings and the stack / name-generation mapping (unit tests on parameter tables)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,9 @@
-"""Adaptive safe BO (issue 13): learned safety scale, trust region, censored aborts, max_aborts, re-flown
-recommendation, evidence re-selection."""
+"""Adaptive safe BO: learned safety scale, trust region, censored aborts, max_aborts, re-flown recommendation with
+its stress screen, evidence re-selection."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -58,22 +60,6 @@ def test_learnt_lengthscales_are_capped_by_the_data_extent() -> None:
     assert np.all(ls <= 2.0 * (X.max(0) - X.min(0)) + 1e-12)
     wide = learn_scales(X, np.full(6, 0.5), 1.0, 0.01, np.full(3, 0.05), extent_factor=None)[0]
     assert np.all(wide > ls)  # without the cap, a flat function claims long scales from a tiny cluster
-
-
-def test_learnt_noise_explains_flight_scatter_instead_of_short_scales() -> None:
-    """Scatter of 0.05 on a smooth function: with the noise fixed at 0.012 the fit explains it with short
-    lengthscales (the safe set would stop growing); learnt (``safety_noise_max``) the noise comes out near 0.05,
-    never below the fixed floor, and the lengthscales are long again."""
-    rng = np.random.default_rng(0)
-    X = 0.4 + 0.2 * rng.random((30, 3))
-    g = 0.3 + 0.3 * np.sin(4 * X[:, 0]) + 0.05 * rng.standard_normal(30)
-    ls_fixed, n_fixed = learn_scales(X, g, 0.6, 0.012, np.full(3, 0.01), extent_factor=None)
-    ls, noise = learn_scales(X, g, 0.6, 0.012, np.full(3, 0.01), extent_factor=None, noise_max=0.15)
-    assert n_fixed == 0.012 and 0.03 < noise < 0.08
-    assert np.min(ls) > 2 * np.min(ls_fixed)
-    quiet = 0.3 + 0.3 * np.sin(4 * X[:, 0])  # no scatter: the noise stays at its floor
-    assert learn_scales(X, quiet, 0.6, 0.012, np.full(3, 0.01), extent_factor=None, noise_max=0.15)[1] == \
-        pytest.approx(0.012, rel=0.05)
 
 
 def test_trust_region_grows_after_successes_and_shrinks_after_an_abort() -> None:
@@ -162,22 +148,22 @@ def test_recommendation_refies_top_candidates_and_rejects_a_bistable_one() -> No
     """B flew 1.0 once but aborts when re-flown; A flies 0.8 reliably: re-flying picks A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.recommend import refly_candidates, refly_choice
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.recommend import best_expected
+    from ksbo_mav.opt.build import build_safe_bo
 
     A, B, C = np.array([0.3, 0.3]), np.array([0.5, 0.6]), np.array([0.8, 0.2])
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
-    bo = SafeBO(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
+    bo = build_safe_bo(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
                 np.random.default_rng(0), adaptive=AdaptiveConfig(refly_top=2))
     bo.fit(np.array([A, B, C]), np.array([0.8, 1.0, 0.3]))
-    cands = refly_candidates(bo)
+    cands = bo.refly.pick_candidates(bo.criterion(), bo.obs, bo.certificate)
     assert sorted(cands.tolist()) == [0, 1]  # the two best distinct points, the lucky B included
     assert bo.recommend()[0] == 1  # without re-flying, the model would recommend B
     bo.observe(B, -1.0, Outcome.ABORTED)
     bo.observe(A, 0.8)
     bo.observe(B, 1.0)
     bo.observe(A, 0.79)
-    assert refly_choice(bo, cands) == 0
+    assert best_expected(bo.obs, bo.certificate, cands) == 0
 
 
 def test_after_a_failure_the_recommendation_weighs_each_candidates_failures() -> None:
@@ -186,27 +172,29 @@ def test_after_a_failure_the_recommendation_weighs_each_candidates_failures() ->
     the same flights with B's failure completed keep B."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.recommend import expected_value, final_choice
+    from ksbo_mav.opt.recommend import expected_value
+    from ksbo_mav.opt.build import build_safe_bo
     from ksbo_mav.opt.safe_bo import SafeBO
 
     A, B = np.array([0.2, 0.3]), np.array([0.7, 0.7])
 
     def run(b_fails: bool) -> tuple[SafeBO, int]:
         model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
-        bo = SafeBO(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
+        bo = build_safe_bo(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
                     np.random.default_rng(0), adaptive=AdaptiveConfig(censor_aborts=True, refly_top=1))
         bo.fit(np.array([A, B]), np.array([0.8, 0.95]))
         for x, y in ((A, 0.8), (A, 0.81), (A, 0.79), (B, 0.95)):
             bo.observe(x, y)
         bo.observe(B, -1.0 if b_fails else 0.95, Outcome.ABORTED if b_fails else Outcome.COMPLETE)
-        bo.refly_set = np.array([1])  # the re-fly phase chose B
-        return bo, final_choice(bo)[0]
+        bo.refly.chosen = np.array([1])  # the re-fly phase chose B
+        return bo, bo.final_choice()[0]
 
     bo, i = run(b_fails=True)
-    assert np.array_equal(bo.X[i], A)
-    assert expected_value(bo, 1) < expected_value(bo, 0) < 0.8  # both discounted, B (1 failure in 3) far more
+    assert np.array_equal(bo.obs.X[i], A)
+    ev = [expected_value(bo.obs, bo.certificate, k) for k in (0, 1)]
+    assert ev[1] < ev[0] < 0.8  # both discounted, B (1 failure in 3) far more
     bo, i = run(b_fails=False)
-    assert np.array_equal(bo.X[i], B)
+    assert np.array_equal(bo.obs.X[i], B)
 
 
 def test_refly_phase_takes_the_last_evaluations() -> None:
@@ -266,37 +254,35 @@ def test_monitor_outcomes_reach_the_result_counts() -> None:
     assert r.n_crashed == r.outcomes.count("crashed") and r.n_unsafe >= r.n_aborted + r.n_crashed
 
 
-# -- session 2 of issue 13: small-budget phases, re-fly candidates, fallback, backup trust ----------------------
+# -- small-budget phases, re-fly candidates, fallback, backup trust ---------------------------------------------
 
 def _adaptive_bo(**adaptive):
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.build import build_safe_bo
 
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
-    return SafeBO(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
+    return build_safe_bo(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
                   np.random.default_rng(0), adaptive=AdaptiveConfig(censor_aborts=True, **adaptive))
 
 
 def test_fallback_never_refiles_a_point_the_failure_model_expects_to_abort() -> None:
-    from ksbo_mav.opt import region
-
     x0, B = np.array([0.2, 0.2]), np.array([0.7, 0.7])
     bo = _adaptive_bo()
     bo.fit(np.array([x0, B]), np.array([0.3, 0.9]))
-    lcb_d = bo.bounds(bo.X)[2]
-    assert region.fallback_index(bo, lcb_d) == 1  # control: B, the best LCB, while nothing failed there
+    lcb_d = bo.bounds(bo.obs.X)[2]
+    # control: B, the best LCB, while nothing failed there
+    assert bo.region.fallback_index(bo.obs, lcb_d, bo.certificate) == 1
     bo.observe(B, -1.0, Outcome.ABORTED)  # the same gains aborted on the next flight (bistable)
-    lcb_d = bo.bounds(bo.X)[2]
+    lcb_d = bo.bounds(bo.obs.X)[2]
     assert lcb_d[1] > lcb_d[0]  # the GP (completed trials only) still prefers B ...
-    assert region.fallback_index(bo, lcb_d) == 0  # ... the fallback goes back to x0
+    assert bo.region.fallback_index(bo.obs, lcb_d, bo.certificate) == 0  # ... the fallback goes back to x0
 
 
 def test_refly_candidates_include_the_best_single_flight() -> None:
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.recommend import refly_candidates
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.build import build_safe_bo
 
     rng = np.random.default_rng(1)
     cluster = 0.3 + 0.02 * rng.standard_normal((6, 2))
@@ -304,20 +290,21 @@ def test_refly_candidates_include_the_best_single_flight() -> None:
     X = np.vstack([cluster, lone])
     y = np.array([0.60, 0.61, 0.62, 0.60, 0.61, 0.62, 0.70])
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
-    bo = SafeBO(model, SafeBOConfig(recommend="mean", recommend_noise=0.5), np.ones(2, bool),
+    bo = build_safe_bo(model, SafeBOConfig(recommend="mean", recommend_noise=0.5), np.ones(2, bool),
                 np.random.default_rng(0), adaptive=AdaptiveConfig(refly_top=2))
     bo.fit(X, y)
     mu, _ = bo.smoothed()
     assert 6 not in np.argsort(-mu)[:2]  # control: the smoothed criterion alone would not re-fly it
-    assert 6 in refly_candidates(bo).tolist()
+    assert 6 in bo.refly.pick_candidates(bo.criterion(), bo.obs, bo.certificate).tolist()
 
 
 def test_short_budget_keeps_most_flights_for_the_search() -> None:
     def bowl(x: np.ndarray) -> float:
         return float(0.9 - np.sum((np.asarray(x) - CENTER) ** 2))
 
+    # A fixed safety scale: the learnt one starts at 0.01 and would spend the first flights on fallbacks here.
     r = ksbo_mav.optimize(bowl, np.array([0.5, 0.5]), BOX2, budget=30, method="ksbo-adaptive", seed=0,
-                          n_local=256, y_max=1.0, safety_scale_bounds=(0.05, 1.0))
+                          n_local=256, y_max=1.0, learn_safety_scale=False)
     kinds = [p["kind"] for p in r.info["proposals"]]
     assert kinds.count("expand") == 3 and kinds.count("refly") == 3  # a tenth of the budget each
     assert kinds.count("exploit") == 6  # a fifth
@@ -327,7 +314,7 @@ def test_backup_is_trusted_only_until_it_fails_to_recover() -> None:
     x0 = np.array([0.5, 0.5])
     bo = _adaptive_bo(backup_beta=0.5)
     bo.fit(np.array([x0, x0 + 0.01]), np.array([0.3, 0.31]))
-    bo.remaining, bo.budget = 20, 30
+    bo.remaining, bo.phases = 20, replace(bo.phases, budget=30)
     first = bo.propose()
     assert first.kind.endswith("/backup")  # control: uncertified but covered by the backup
     bo.observe(first.x, -1.0, Outcome.CRASHED)  # the backup did not recover
@@ -340,7 +327,7 @@ def test_backup_is_trusted_only_until_it_fails_to_recover() -> None:
 def test_exclusion_balls_grow_when_failures_cluster_and_stay_fixed_otherwise() -> None:
     """A second failure just outside the first one's ball (0.07 from it, radius 0.05) doubles both balls; a
     failure far away keeps its own base ball; growth 1 (the paper method) keeps every ball at the base radius."""
-    from ksbo_mav.opt.region import exclusion_radii
+    from ksbo_mav.opt.exclusion import exclusion_radii
 
     bad = np.array([[0.5, 0.5], [0.57, 0.5], [0.1, 0.9]])
     np.testing.assert_allclose(exclusion_radii(bad, 0.05, 2.0, 0.2), [0.1, 0.1, 0.05])
@@ -355,20 +342,19 @@ def test_no_query_and_no_fallback_inside_a_grown_exclusion_ball() -> None:
     although the main GP never saw them (censored); the point 0.07 from the first abort was allowed before."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.region import excluded
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.build import build_safe_bo
 
     model = SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.3, signal_std=1.0, noise_std=0.01), 2)
-    bo = SafeBO(model, SafeBOConfig(n_local=256, n_global=64, exclusion_radius=0.05), np.ones(2, bool),
+    bo = build_safe_bo(model, SafeBOConfig(n_local=256, n_global=64, exclusion_radius=0.05), np.ones(2, bool),
                 np.random.default_rng(0),
                 adaptive=AdaptiveConfig(censor_aborts=True, exclusion_growth=2.0, exclusion_max=0.2))
     X = np.array([[0.3, 0.3], [0.35, 0.3], [0.3, 0.35], [0.4, 0.4], [0.45, 0.45]])
     bo.fit(X, np.array([0.5, 0.55, 0.55, 0.6, 0.65]))
     f1, f2, probe = np.array([0.5, 0.5]), np.array([0.57, 0.5]), np.array([[0.43, 0.5]])
     bo.observe(f1, -1.0, Outcome.ABORTED)
-    assert not excluded(bo, probe)[0]  # 0.07 from f1: outside its 0.05 ball
+    assert not bo.certificate.exclusion.excluded(bo.obs, probe)[0]  # 0.07 from f1: outside its 0.05 ball
     bo.observe(f2, -1.0, Outcome.ABORTED)
-    assert excluded(bo, probe)[0] and not bo.safe_mask(probe)[0]
+    assert bo.certificate.exclusion.excluded(bo.obs, probe)[0] and not bo.safe_mask(probe)[0]
     for _ in range(5):
         p = bo.propose()
         assert min(np.linalg.norm(p.x - f1), np.linalg.norm(p.x - f2)) >= 0.1 - 1e-12
@@ -380,6 +366,7 @@ def test_a_failure_at_new_gains_shrinks_the_learnt_safety_scale_a_failed_refligh
     ``failure_scale_shrink`` per failure at new gains (the certified region shrinks), not for a failed re-flight."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.build import build_safe_bo
     from ksbo_mav.opt.safe_bo import SafeBO
 
     rng = np.random.default_rng(1)
@@ -388,7 +375,7 @@ def test_a_failure_at_new_gains_shrinks_the_learnt_safety_scale_a_failed_refligh
 
     def state(shrink: float) -> SafeBO:
         model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
-        bo = SafeBO(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
+        bo = build_safe_bo(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
                     adaptive=AdaptiveConfig(censor_aborts=True, learn_safety_scale=True,
                                             failure_scale_shrink=shrink))
         bo.fit(X, y)
@@ -403,7 +390,7 @@ def test_a_failure_at_new_gains_shrinks_the_learnt_safety_scale_a_failed_refligh
     np.testing.assert_allclose(ref.model.spec.lengthscale, base)
     bo.observe(X[3], -1.0, Outcome.ABORTED)  # a re-flight of flown gains: no new information on the scale
     np.testing.assert_allclose(bo.model.spec.lengthscale, np.maximum(0.5 * base, 0.01))
-    assert bo.scale_factor == 0.5
+    assert bo.surrogate.scale.factor == 0.5
 
 
 def test_an_unsafe_flight_at_new_gains_shrinks_a_fixed_safety_scale_a_safe_one_or_a_reflight_does_not() -> None:
@@ -412,6 +399,7 @@ def test_an_unsafe_flight_at_new_gains_shrinks_a_fixed_safety_scale_a_safe_one_o
     gains leave it. The additive main GP keeps its own lengthscale."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.build import build_safe_bo
     from ksbo_mav.opt.safe_bo import SafeBO
 
     rng = np.random.default_rng(1)
@@ -421,7 +409,7 @@ def test_an_unsafe_flight_at_new_gains_shrinks_a_fixed_safety_scale_a_safe_one_o
     def state(shrink: float) -> SafeBO:
         model = SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 3)
         safety = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.06, signal_std=1.0, noise_std=0.01), 3)
-        bo = SafeBO(model, SafeBOConfig(), np.ones(3, bool), np.random.default_rng(0), safety_model=safety,
+        bo = build_safe_bo(model, SafeBOConfig(), np.ones(3, bool), np.random.default_rng(0), safety_model=safety,
                     adaptive=AdaptiveConfig(unsafe_scale_shrink=shrink))
         bo.fit(X, y)
         return bo
@@ -429,42 +417,41 @@ def test_an_unsafe_flight_at_new_gains_shrinks_a_fixed_safety_scale_a_safe_one_o
     bo, ref = state(0.7), state(1.0)
     for b in (bo, ref):
         b.observe(np.array([0.45, 0.5, 0.55]), 0.4)  # safe, new gains
-    assert bo.scale_factor == 1.0 and bo.safety_model.spec.lengthscale == 0.06
+    assert bo.surrogate.scale.factor == 1.0 and bo.surrogate.safety_model.spec.lengthscale == 0.06
     for b in (bo, ref):
         b.observe(np.array([0.7, 0.7, 0.7]), -0.5)  # unsafe, new gains
-    np.testing.assert_allclose(bo.safety_model.spec.lengthscale, [0.042] * 3)
-    assert ref.safety_model.spec.lengthscale == 0.06 and ref.scale_factor == 1.0
+    np.testing.assert_allclose(bo.surrogate.safety_model.spec.lengthscale, [0.042] * 3)
+    assert ref.surrogate.safety_model.spec.lengthscale == 0.06 and ref.surrogate.scale.factor == 1.0
     assert bo.model.spec.lengthscale == 0.1
     bo.observe(np.array([0.7, 0.7, 0.7]), -0.6)  # the same gains again: no new information on the scale
-    np.testing.assert_allclose(bo.safety_model.spec.lengthscale, [0.042] * 3)
+    np.testing.assert_allclose(bo.surrogate.safety_model.spec.lengthscale, [0.042] * 3)
     bo.observe(np.array([0.3, 0.7, 0.7]), -0.2)  # unsafe at new gains again
-    np.testing.assert_allclose(bo.safety_model.spec.lengthscale, [0.0294] * 3)
+    np.testing.assert_allclose(bo.surrogate.safety_model.spec.lengthscale, [0.0294] * 3)
     # the shrunk GP is the one that certifies: its posterior is that of a fresh fit at the shrunk scale
     fresh = SafetyModel(ModelSpec(orders=(3,), lengthscale=(0.0294,) * 3, signal_std=1.0, noise_std=0.01), 3)
-    fresh.fit(bo.X, bo.y)
+    fresh.fit(bo.obs.X, bo.obs.y)
     Z = rng.random((5, 3))
-    np.testing.assert_allclose(bo.safety_model.predict(Z)[0], fresh.predict(Z)[0], atol=1e-9)
+    np.testing.assert_allclose(bo.surrogate.safety_model.predict(Z)[0], fresh.predict(Z)[0], atol=1e-9)
 
 
 def test_a_refly_candidate_that_fails_is_not_flown_again() -> None:
     """Re-fly phase of 6 flights over 2 candidates: B aborts at its first re-flight, so the rest go to A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.recommend import next_refly
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.build import build_safe_bo
 
     A, B = np.array([0.2, 0.3]), np.array([0.7, 0.7])
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
-    bo = SafeBO(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
+    bo = build_safe_bo(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
                 np.random.default_rng(0), adaptive=AdaptiveConfig(censor_aborts=True, refly_top=2))
     bo.fit(np.array([A, B]), np.array([0.8, 0.95]))
-    bo.refly_set = np.array([1, 0])
+    bo.refly.chosen = np.array([1, 0])
     flown = []
     for k in range(6):
-        i = next_refly(bo, k)
-        flown.append("A" if np.array_equal(bo.X[i], A) else "B")
+        i = bo.refly.next_flight(k, bo.criterion, bo.obs, bo.certificate)[0]
+        flown.append("A" if np.array_equal(bo.obs.X[i], A) else "B")
         bad = flown[-1] == "B"
-        bo.observe(bo.X[i], -1.0 if bad else 0.8, Outcome.ABORTED if bad else Outcome.COMPLETE)
+        bo.observe(bo.obs.X[i], -1.0 if bad else 0.8, Outcome.ABORTED if bad else Outcome.COMPLETE)
     assert flown == ["B", "A", "A", "A", "A", "A"]
 
 
@@ -473,21 +460,20 @@ def test_when_every_refly_candidate_failed_the_best_point_clear_of_failures_is_f
     joins the re-flown set; the final choice is A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.recommend import final_choice, next_refly
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.build import build_safe_bo
 
     A, B = np.array([0.2, 0.3]), np.array([0.7, 0.7])
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
-    bo = SafeBO(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
+    bo = build_safe_bo(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
                 np.random.default_rng(0), adaptive=AdaptiveConfig(censor_aborts=True, refly_top=1))
     bo.fit(np.array([A, A, A, A, B]), np.array([0.8, 0.8, 0.8, 0.8, 0.95]))
-    bo.refly_set = np.array([4])
-    assert np.array_equal(bo.X[next_refly(bo, 0)], B)
+    bo.refly.chosen = np.array([4])
+    assert np.array_equal(bo.obs.X[bo.refly.next_flight(0, bo.criterion, bo.obs, bo.certificate)[0]], B)
     bo.observe(B, -1.0, Outcome.ABORTED)
-    i = next_refly(bo, 1)
-    assert np.array_equal(bo.X[i], A) and i in bo.refly_set
+    i = bo.refly.next_flight(1, bo.criterion, bo.obs, bo.certificate)[0]
+    assert np.array_equal(bo.obs.X[i], A) and i in bo.refly.chosen
     bo.observe(A, 0.8)
-    assert np.array_equal(bo.X[final_choice(bo)[0]], A)
+    assert np.array_equal(bo.obs.X[bo.final_choice()[0]], A)
 
 
 def test_ard_acquisition_stops_paying_for_uncertainty_along_flat_dimensions() -> None:
@@ -496,6 +482,7 @@ def test_ard_acquisition_stops_paying_for_uncertainty_along_flat_dimensions() ->
     matters; the safety bound (LCB) is the main and safety GPs' and does not change."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.build import build_safe_bo
     from ksbo_mav.opt.safe_bo import SafeBO
 
     rng = np.random.default_rng(3)
@@ -505,45 +492,27 @@ def test_ard_acquisition_stops_paying_for_uncertainty_along_flat_dimensions() ->
     def state(ard: float) -> SafeBO:
         spec = ModelSpec(orders=(1, 2), lengthscale=0.1, signal_std=1.0, noise_std=0.01)
         safety = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.05, signal_std=1.0, noise_std=0.01), 3)
-        bo = SafeBO(SafetyModel(spec, 3), SafeBOConfig(), np.ones(3, bool), np.random.default_rng(0),
+        bo = build_safe_bo(SafetyModel(spec, 3), SafeBOConfig(), np.ones(3, bool), np.random.default_rng(0),
                     safety_model=safety, adaptive=AdaptiveConfig(learn_safety_scale=True, ard_acquisition=ard))
         bo.fit(X, y)
         return bo
 
     bo, ref = state(1.0), state(0.0)
-    assert ref.acq_model is None
-    ls = np.asarray(bo.acq_model.spec.lengthscale)
+    assert ref.surrogate.acq_model is None
+    ls = np.asarray(bo.surrogate.acq_model.spec.lengthscale)
     assert np.all(ls >= 0.1) and np.all(ls[1:] > 3 * ls[0])  # flat dimensions stretched far more than x0
     Z = np.array([[0.5, 0.5, 0.5]] * 3) + 0.35 * np.eye(3)  # the same step out of the data along each axis
     _, sd, lcb, up = bo.bounds(Z)
     _, _, lcb_ref, up_ref = ref.bounds(Z)
     np.testing.assert_allclose(lcb, lcb_ref)
     np.testing.assert_allclose(sd, sd[0], rtol=0.2)  # the main GP's uncertainty: the same along every axis ...
-    _, sd_acq = bo.acq_model.predict(Z)
+    _, sd_acq = bo.surrogate.acq_model.predict(Z)
     assert np.all(sd_acq[1:] < 0.5 * sd_acq[0])  # ... the acquisition GP's: small along the flat ones
-    mu_acq, _ = bo.acq_model.predict(Z)
-    np.testing.assert_allclose(up, mu_acq + bo.config.beta_ucb * sd_acq)  # and the UCB is the acquisition GP's
+    mu_acq, _ = bo.surrogate.acq_model.predict(Z)
+    np.testing.assert_allclose(up, mu_acq + bo.certificate.beta_ucb * sd_acq)  # and the UCB is the acquisition GP's
     x_new = np.array([0.45, 0.55, 0.5])
     bo.observe(x_new, 0.4 + 0.3 * np.sin(15 * 0.45))  # the acquisition GP takes new data like the others
-    assert bo.acq_model.n == bo.model.n == 41
-
-
-def test_safety_gp_takes_the_learnt_noise_and_keeps_its_floor() -> None:
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.safe_bo import SafeBO
-
-    rng = np.random.default_rng(0)
-    X = 0.4 + 0.2 * rng.random((30, 3))
-    y = 0.3 + 0.3 * np.sin(4 * X[:, 0]) + 0.05 * rng.standard_normal(30)
-    safety = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.05, signal_std=0.6, noise_std=0.012), 3)
-    bo = SafeBO(SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.1, signal_std=0.6, noise_std=0.012), 3),
-                SafeBOConfig(), np.ones(3, bool), np.random.default_rng(0), safety_model=safety,
-                adaptive=AdaptiveConfig(learn_safety_scale=True, scale_extent_factor=10.0, safety_noise_max=0.25))
-    bo.fit(X, y)
-    assert bo.noise_floor == 0.012 and 0.03 < bo.safety_model.noise_std < 0.08
-    assert bo.safety_model.gp.noise == pytest.approx(bo.safety_model.noise_std**2)  # the fitted GP uses it
-    assert bo.model.noise_std == 0.012  # the main GP keeps its own
+    assert bo.surrogate.acq_model.n == bo.model.n == 41
 
 
 def test_the_trust_region_centre_is_never_inside_a_failures_exclusion_ball() -> None:
@@ -553,31 +522,21 @@ def test_the_trust_region_centre_is_never_inside_a_failures_exclusion_ball() -> 
     fixed balls keep A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.build import build_safe_bo
 
     A, B = np.array([0.6, 0.6]), np.array([0.3, 0.3])
 
     def centre(growth: float) -> np.ndarray:
         model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
-        bo = SafeBO(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
+        bo = build_safe_bo(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
                     adaptive=AdaptiveConfig(censor_aborts=True, trust_region=True, exclusion_growth=growth))
         bo.fit(np.array([B, A]), np.array([0.6, 0.9]))
-        assert np.array_equal(bo.tr.center, A)  # before any failure: the best point
+        assert np.array_equal(bo.trust_region.center, A)  # before any failure: the best point
         bo.observe(A + np.array([0.02, 0.0]), -1.0, Outcome.CRASHED)
-        return bo.tr.center
+        return bo.trust_region.center
 
     np.testing.assert_array_equal(centre(2.0), B)
     np.testing.assert_array_equal(centre(1.0), A)
-
-
-@pytest.mark.parametrize("name", ["ard_acquisition", "safety_noise_max"])
-def test_negative_scale_options_are_refused(name: str) -> None:
-    from ksbo_mav.errors import InputError
-    from ksbo_mav.opt.options import options_for
-
-    assert options_for("ksbo-adaptive").ard_acquisition == 2.0  # the default of the adaptive method
-    with pytest.raises(InputError, match=name):
-        options_for("ksbo-adaptive", {name: -1.0})
 
 
 def test_a_scale_refit_fits_the_safety_gp_once_and_matches_a_fresh_fit(monkeypatch) -> None:
@@ -586,13 +545,13 @@ def test_a_scale_refit_fits_the_safety_gp_once_and_matches_a_fresh_fit(monkeypat
     lengthscales."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.build import build_safe_bo
 
     rng = np.random.default_rng(5)
     X = 0.4 + 0.2 * rng.random((30, 3))
     y = 0.5 + 0.2 * np.sin(10 * X[:, 0])
     safety = SafetyModel(ModelSpec(orders=(3,), lengthscale=0.05, noise_std=None), 3)
-    bo = SafeBO(SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.1), 3), SafeBOConfig(), np.ones(3, bool),
+    bo = build_safe_bo(SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.1), 3), SafeBOConfig(), np.ones(3, bool),
                 np.random.default_rng(0), safety_model=safety,
                 adaptive=AdaptiveConfig(learn_safety_scale=True, scale_refit_every=1))
     bo.fit(X, y)
@@ -606,12 +565,12 @@ def test_a_scale_refit_fits_the_safety_gp_once_and_matches_a_fresh_fit(monkeypat
     monkeypatch.setattr(SafetyModel, "fit", counting_fit)
     x_new = np.array([0.5, 0.45, 0.55])
     bo.observe(x_new, 0.5 + 0.2 * np.sin(5.0))  # iteration 1 <= 4 * scale_refit_every: a scale refit
-    assert len(bo.scale_history) == 2
-    assert fits.count(id(bo.safety_model)) == 1
-    fresh = bo.safety_model.variant(lengthscale=bo.safety_model.spec.lengthscale)
-    real_fit(fresh, bo.X, bo.y)
+    assert len(bo.surrogate.scale.history) == 2
+    assert fits.count(id(bo.surrogate.safety_model)) == 1
+    fresh = bo.surrogate.safety_model.variant(lengthscale=bo.surrogate.safety_model.spec.lengthscale)
+    real_fit(fresh, bo.obs.X, bo.obs.y)
     Z = 0.3 + 0.4 * rng.random((20, 3))
-    for a, b in zip(bo.safety_model.predict(Z), fresh.predict(Z)):
+    for a, b in zip(bo.surrogate.safety_model.predict(Z), fresh.predict(Z)):
         np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
 
 
@@ -622,92 +581,14 @@ def test_the_failure_model_takes_every_trial_not_only_those_that_trigger_a_refit
     bo = _adaptive_bo()
     bo.fit(np.array([x0, [0.3, 0.3]]), np.array([0.3, 0.5]))
     bo.observe(B, -1.0, Outcome.ABORTED)
-    p_before = bo.failures.predict(B[None, :])[0][0]
+    p_before = bo.certificate.failures.predict(B[None, :])[0][0]
     for dx in (0.01, -0.01, 0.02):
         bo.observe(B + dx, 0.6)  # completed, no refit (scale learning off, refit_every 0)
-    assert bo.failures.X.shape[0] == bo.X.shape[0] == 6
-    assert bo.failures.predict(B[None, :])[0][0] < 0.6 * p_before
+    assert bo.certificate.failures.X.shape[0] == bo.obs.X.shape[0] == 6
+    assert bo.certificate.failures.predict(B[None, :])[0][0] < 0.6 * p_before
 
 
-# -- session 23: β calibrated on the run's one-step-ahead errors ------------------------------------------------
-
-def test_calibration_scores_are_the_beta_each_query_needed_and_set_beta_once_enough() -> None:
-    from ksbo_mav.opt.calibration import BetaCalibration
-
-    cal = BetaCalibration(beta_max=5.0, beta_min=2.0, quantile=1.0, margin=1.5, min_points=3, window=0, beta_cap=None)
-    x = np.array([0.1, 0.2])
-    # two models (main, safety): the bound held at β iff y ≥ μ_m − β σ_m for both, so the score is the larger ratio
-    cal.predicted(x, np.array([0.5, 0.4]), np.array([0.1, 0.2]))
-    cal.observed(x, 0.3)
-    assert cal.scores == pytest.approx([2.0])  # max((0.5 − 0.3)/0.1, (0.4 − 0.3)/0.2)
-    cal.predicted(x, np.array([0.5]), np.array([0.1]))
-    cal.observed(x + 0.1, 0.0)  # not the predicted query (a re-flight or fallback): not scored
-    cal.observed(x, 0.0)  # and the prediction was consumed
-    assert len(cal.scores) == 1 and cal.beta() == 5.0  # too few scores: the configured β
-    for y in (0.6, 0.55):  # better than predicted: negative scores
-        cal.predicted(x, np.array([0.5]), np.array([0.1]))
-        cal.observed(x, y)
-    assert cal.beta() == pytest.approx(3.0)  # 1.5 × max score 2.0, inside [2, 5]
-    cal.predicted(x, np.array([0.5]), np.array([0.1]))
-    cal.observed(x, -0.5)  # overstated by 10 σ
-    assert cal.beta() == 5.0  # clipped to the configured β
-    assert BetaCalibration(beta_max=5.0, scores=[0.0] * 20).beta() == 5.0  # beta_min None: calibration off
-    # beta_min = β: β stays the floor; only a bad flight widens it (a floor above β is clipped to β).
-    assert BetaCalibration(beta_max=5.0, beta_min=5.0, window=5, beta_cap=10.0, scores=[0.0] * 20).beta() == 5.0
-    assert BetaCalibration(beta_max=5.0, beta_min=6.0, window=5, beta_cap=10.0, scores=[0.0] * 19 + [9.0]).beta() == 9.0
-
-
-def test_after_a_flight_far_below_its_prediction_beta_widens_for_the_next_window_queries() -> None:
-    from ksbo_mav.opt.calibration import BetaCalibration
-
-    cal = BetaCalibration(beta_max=5.0, beta_min=4.0, quantile=0.95, margin=1.0, min_points=10, window=3,
-                          beta_cap=10.0, scores=[0.1] * 20)
-    assert cal.beta() == 4.0  # well predicted so far: the floor
-    cal.scores.append(70.0)  # a crash-like flight, 70 σ below the bound's mean
-    widened = [cal.beta()]
-    for _ in range(3):
-        cal.scores.append(0.2)
-        widened.append(cal.beta())
-    assert widened == [10.0, 10.0, 10.0, 4.0]  # capped at 10 for the window of 3 queries, then the floor again
-
-
-def _smooth(x: np.ndarray) -> float:
-    return float(0.8 - 2.0 * np.sum((np.asarray(x) - 0.6) ** 2))
-
-
-@pytest.mark.parametrize("calibrate", [False, True])
-def test_a_model_that_predicts_well_certifies_with_a_narrower_margin(calibrate: bool) -> None:
-    opts = {"beta_min": 2.0, "beta_quantile": 0.95, "beta_margin": 1.0} if calibrate else {}
-    r = ksbo_mav.optimize(_smooth, np.array([0.2, 0.2]), BOX2, budget=30, method="safeopt", seed=0,
-                          signal_std=1.0, noise_std=1e-3, beta=5.0, n_local=256, n_global=64, **opts)
-    cal = r.info["calibration"]
-    assert len(cal["scores"]) >= 20 and r.n_unsafe == 0
-    # A smooth quadratic is predicted to within a fraction of σ at every query: the calibrated β falls to its floor
-    # (the fixed one stays at 5).
-    assert cal["beta"] == (2.0 if calibrate else 5.0)
-    assert np.quantile(cal["scores"], 0.95) < 2.0
-
-
-def test_a_model_that_overstates_never_earns_a_narrower_margin() -> None:
-    from ksbo_mav.opt.config import SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.safe_bo import SafeBO
-
-    model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.3, signal_std=1.0, noise_std=0.01), 2)
-    bo = SafeBO(model, SafeBOConfig(beta=5.0, beta_min=2.0, beta_quantile=0.9, beta_margin=1.0,
-                                    beta_min_points=5, recommend_noise=None), np.ones(2, bool),
-                np.random.default_rng(0))
-    bo.fit(np.array([[0.5, 0.5]]), np.array([0.5]))
-    rng = np.random.default_rng(1)
-    for _ in range(8):  # a cliff the smooth GP does not expect: every query flies far below its prediction
-        p = bo.propose()
-        bo.observe(p.x, p.mu - 6.0 * max(p.sd, 1e-3) - 0.01 * rng.random())
-    s = bo.calibration.scores
-    assert len(s) >= 5 and np.quantile(s, 0.9) > 5.0
-    # the quantile is above the configured β, and the last bad flights widen it further (window 5, cap 10)
-    assert bo.beta == pytest.approx(min(10.0, max(5.0, np.quantile(s, 0.9), max(s[-5:]))))
-    assert bo.beta > 5.0
-
+# -- the re-fly phase's stress screen ---------------------------------------------------------------------------
 
 class _Stressed:
     """bump(0.2) whose first candidate fails from the hardest start (``stress``): bistable gains that ordinary
@@ -752,64 +633,3 @@ def test_refly_stress_screens_candidates_from_the_hardest_start_then_reflies_tho
     assert [p["kind"] for p in r2.info["proposals"]].count("refly") == 4
 
 
-def test_stress_trials_fly_every_search_trial_from_the_hardest_start() -> None:
-    """``stress_trials``: each trial of the search goes to ``fun.stress`` (the gains the optimiser proposed), the
-    re-fly phase's re-flights stay ordinary flights; off by default, and an objective without ``stress`` flies as
-    usual."""
-
-    class Counted:
-        def __init__(self) -> None:
-            self.f, self.calls, self.stress_calls = bump(0.2), 0, 0
-
-        def __call__(self, x: np.ndarray) -> float:
-            self.calls += 1
-            return self.f(x)
-
-        def stress(self, x: np.ndarray) -> float:
-            self.stress_calls += 1
-            return self.f(x)
-
-    kw = dict(budget=40, method="ksbo", seed=0, refly_last=4, refly_top=2, orders=(1,), n_local=128, y_max=1.0)
-    fun = Counted()
-    r = ksbo_mav.optimize(fun, np.array([0.5, 0.4]), BOX2, stress_trials=True, **kw)
-    kinds = [p["kind"] for p in r.info["proposals"]]
-    assert kinds[-4:] == ["refly"] * 4 and "refly" not in kinds[:-4]
-    assert fun.stress_calls == len(kinds) - 4 and fun.calls == 4 + 1  # + the start's own flight
-    plain = Counted()
-    ksbo_mav.optimize(plain, np.array([0.5, 0.4]), BOX2, **kw)
-    assert plain.stress_calls == 0 and plain.calls == len(kinds) + 1
-    r2 = ksbo_mav.optimize(bump(0.2), np.array([0.5, 0.4]), BOX2, stress_trials=True, **kw)
-    assert len(r2.info["proposals"]) == len(kinds)
-
-
-def test_safety_scale_floor_holds_the_learnt_scale_up_until_a_failure_shrinks_it() -> None:
-    """``safety_scale_floor``: the learnt safety lengthscales start at the floor and never fall below it while no
-    trial failed (the data's extent cap and short ML-II scales included); a failure at new gains still shrinks them
-    (floor × ``failure_scale_shrink``). Without a floor the learnt scale starts at the lower bound 0.01."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.safe_bo import SafeBO
-
-    rng = np.random.default_rng(1)
-    X = 0.48 + 0.04 * rng.random((12, 2))  # a small extent: the cap alone would keep the scale below 0.08
-    y = 0.5 + 0.3 * np.sin(30 * X[:, 0]) * np.cos(2 * X[:, 1])
-
-    def state(floor: float) -> SafeBO:
-        model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
-        bo = SafeBO(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
-                    adaptive=AdaptiveConfig(censor_aborts=True, learn_safety_scale=True, failure_scale_shrink=0.7,
-                                            safety_scale_floor=floor))
-        bo.fit(X[:1], y[:1])
-        return bo
-
-    bo, ref = state(0.06), state(0.0)
-    assert np.all(np.asarray(bo.model.spec.lengthscale) == 0.06)
-    assert np.all(np.asarray(ref.model.spec.lengthscale) == 0.01)
-    for b in (bo, ref):
-        for x, v in zip(X[1:], y[1:]):
-            b.observe(x, v)
-    learnt = np.asarray(bo.model.spec.lengthscale, float)
-    assert np.all(learnt >= 0.06) and np.any(np.asarray(ref.model.spec.lengthscale) < 0.06)
-    np.testing.assert_allclose(learnt, np.maximum(bo.ml_scale, 0.06))
-    bo.observe(np.array([0.7, 0.7]), -1.0, Outcome.ABORTED)  # new gains
-    np.testing.assert_allclose(bo.model.spec.lengthscale, np.maximum(bo.ml_scale, 0.06) * 0.7)

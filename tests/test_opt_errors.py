@@ -1,4 +1,4 @@
-"""optimize's errors (issue 14): a dedicated error for an unsafe start, clear errors naming the evaluation."""
+"""optimize's errors: a dedicated error for an unsafe start, clear errors naming the evaluation."""
 
 from __future__ import annotations
 
@@ -68,29 +68,3 @@ def test_one_element_arrays_and_numpy_scalars_are_accepted() -> None:
 def test_unchecked_aborted_start_is_refused_by_the_safe_methods() -> None:
     with pytest.raises(UnsafeStartError, match="did not complete"):
         ksbo_mav.optimize(lambda x: Evaluation(None, Outcome.ABORTED), X0, BOUNDS, budget=3, check_x0=False)
-
-
-@pytest.mark.parametrize("name, value, match", [
-    ("beta", "abc", "option beta must be a number, got 'abc'"),
-    ("safety_noise_max", [1], "option safety_noise_max must be a number"),
-    ("max_aborts", "four", "option max_aborts must be a number or null"),
-    ("learn_safety_scale", 1, "option learn_safety_scale must be true or false"),
-    ("local_scales", ["a"], "option local_scales must be a list of numbers"),
-    ("beta", None, "option beta must be a value \\(not null\\)"),
-])
-def test_an_option_of_the_wrong_kind_is_an_input_error_not_a_type_error(name: str, value: object,
-                                                                        match: str) -> None:
-    """`--option beta=abc` reaches the options as the string 'abc'; it used to fail deep in `validate` with a
-    TypeError traceback."""
-    from ksbo_mav.opt.options import options_for
-
-    with pytest.raises(InputError, match=match):
-        options_for("ksbo-adaptive", {name: value})
-
-
-def test_options_of_the_right_kind_pass_the_kind_check() -> None:
-    from ksbo_mav.opt.options import options_for
-
-    o = options_for("ksbo-adaptive", {"beta": 3, "max_aborts": None, "backup_beta": None, "local_scales": [0.02, 0.1],
-                                      "learn_safety_scale": False, "rule": "safeopt", "orders": (1, 2)})
-    assert (o.beta, o.max_aborts, o.local_scales, o.rule, o.orders) == (3, None, [0.02, 0.1], "safeopt", (1, 2))

@@ -9,8 +9,9 @@ from hypothesis import strategies as st
 
 import ksbo_mav
 from ksbo_mav.opt.model import ModelSpec, SafetyModel
-from ksbo_mav.opt import region
-from ksbo_mav.opt.safe_bo import SafeBO, SafeBOConfig
+from ksbo_mav.opt.build import build_safe_bo
+from ksbo_mav.opt.config import SafeBOConfig
+from ksbo_mav.opt.safe_bo import SafeBO
 
 D = 3
 CENTER = np.array([0.75, 0.3, 0.7])
@@ -56,18 +57,19 @@ def test_unconstrained_bo_does_go_unsafe_on_the_same_problem() -> None:
     assert r.n_unsafe > 0
 
 
-def _random_state(seed: int, n: int, d: int, ell: float, p_min: float, with_safety: bool = False) -> SafeBO:
+def _random_state(seed: int, n: int, d: int, ell: float, p_min: float, with_safety: bool = False, **cfg) -> SafeBO:
     rng = np.random.default_rng(seed)
     X = np.clip(0.5 + 0.15 * rng.standard_normal((n, d)), 0, 1)
     y = p_min + rng.normal(0.3, 0.5, n)
     y[0] = p_min + abs(y[0]) + 0.1  # a safe start, as the optimiser assumes
     spec = ModelSpec(orders=tuple(sorted({1, min(2, d)})), lengthscale=ell, signal_std=1.0, noise_std=0.05)
     model = SafetyModel(spec, d, p_min=p_min, seed=seed)
-    cfg = SafeBOConfig(n_local=128, n_global=32, refine_rounds=2, refine_samples=8, expansion_iters=seed % 3)
+    config = SafeBOConfig(**{"n_local": 128, "n_global": 32, "refine_rounds": 2, "refine_samples": 8,
+                             "expansion_iters": seed % 3, **cfg})
     safety = None
     if with_safety:
         safety = SafetyModel(ModelSpec(orders=(d,), lengthscale=ell / 2, signal_std=1.0, noise_std=0.05), d, p_min)
-    bo = SafeBO(model, cfg, np.ones(d, dtype=bool), rng, safety_model=safety)
+    bo = build_safe_bo(model, config, np.ones(d, dtype=bool), rng, safety_model=safety)
     bo.fit(X, y)
     return bo
 
@@ -86,21 +88,20 @@ def _random_state(seed: int, n: int, d: int, ell: float, p_min: float, with_safe
 def test_safe_set_and_proposals_are_certified(
     seed: int, n: int, d: int, ell: float, p_min: float, rule: str, with_safety: bool, y_max: float | None
 ) -> None:
-    bo = _random_state(seed, n, d, ell, p_min, with_safety)
-    bo.config = SafeBOConfig(**{**bo.config.__dict__, "rule": rule, "y_max": None if y_max is None else p_min + y_max})
+    bo = _random_state(seed, n, d, ell, p_min, with_safety, rule=rule, y_max=None if y_max is None else p_min + y_max)
     # The certificate is against every model: recompute both bounds independently of SafeBO.bounds.
     def lcb_all(Z: np.ndarray) -> np.ndarray:
         out = []
-        for m in (bo.model, bo.safety_model):
+        for m in (bo.model, bo.surrogate.safety_model):
             if m is None:
                 continue
             mu, sd = m.predict(Z)
-            if bo.config.y_max is not None:
-                mu = np.minimum(mu, bo.config.y_max)
-            out.append(np.minimum(mu, bo.y.max()) - bo.config.beta * sd)
+            if bo.certificate.y_max is not None:
+                mu = np.minimum(mu, bo.certificate.y_max)
+            out.append(np.minimum(mu, bo.obs.y.max()) - bo.certificate.beta * sd)
         return np.min(out, axis=0)
 
-    C = region.candidates(bo, bo.X[:1])
+    C = bo.region.candidates(bo.obs.X[:1], bo.rng)
     mask = bo.safe_mask(C)
     lcb = lcb_all(C)
     assert np.all(lcb[mask] >= p_min - 1e-12)
@@ -109,7 +110,7 @@ def test_safe_set_and_proposals_are_certified(
     lcb_p = lcb_all(p.x[None, :])
     if p.kind == "fallback":
         # Nothing certified: the proposal is an existing observation (the best-LCB one), never a new point.
-        assert any(np.array_equal(p.x, x) for x in bo.X)
+        assert any(np.array_equal(p.x, x) for x in bo.obs.X)
     else:
         assert lcb_p[0] >= p_min - 1e-12
     assert np.all((p.x >= 0) & (p.x <= 1))
@@ -117,8 +118,7 @@ def test_safe_set_and_proposals_are_certified(
 
 def test_expansion_phase_is_keyed_to_bo_iterations_not_observations() -> None:
     """SafeCtrlBO's bug: with a large prior its expansion phase never ran. Here it runs for the first iterations."""
-    bo = _random_state(0, 40, 3, 0.3, 0.0)
-    bo.config = SafeBOConfig(n_local=128, n_global=32, expansion_iters=2)
+    bo = _random_state(0, 40, 3, 0.3, 0.0, refine_rounds=4, refine_samples=32, expansion_iters=2)
     kinds = []
     for _ in range(4):
         p = bo.propose()
@@ -153,7 +153,7 @@ def test_ksbo_selects_orders_on_the_prior_and_reports_them() -> None:
 def test_ksbo_without_prior_uses_default_orders_then_reselects() -> None:
     x0 = np.full(4, 0.5)
     r = ksbo_mav.optimize(_interaction, x0, np.array([[0.0, 1.0]] * 4), budget=16, seed=0, select_at=12,
-                          min_select=10, top=2, trials=20, n_local=128, n_global=32, signal_std=1.0)
+                          top=2, trials=20, n_local=128, n_global=32, signal_std=1.0)  # min_select: 10
     assert r.info["selection"]["selected"] is False  # one observation: defaults
     assert r.info["reselection"]["selected"] is True
     assert r.info["reselection"]["at_iteration"] == 12
@@ -181,10 +181,10 @@ def test_dimension_selection_holds_dropped_dimensions_at_x0() -> None:
 
 
 def test_no_certified_point_near_an_unsafe_observation() -> None:
-    bo = _random_state(3, 20, 3, 0.3, 0.0)
-    bo.config = SafeBOConfig(n_local=256, n_global=64, exclusion_radius=0.1)
+    bo = _random_state(3, 20, 3, 0.3, 0.0, n_local=256, n_global=64, refine_rounds=4, refine_samples=32,
+                       expansion_iters=10, exclusion_radius=0.1)
     bo.observe(np.array([0.5, 0.5, 0.5]), -1.0)
-    C = region.candidates(bo, bo.X[:5])
+    C = bo.region.candidates(bo.obs.X[:5], bo.rng)
     C = np.vstack([C, [[0.52, 0.5, 0.5]]])
     mask = bo.safe_mask(C)
     d = np.linalg.norm(C - [0.5, 0.5, 0.5], axis=1)
@@ -197,33 +197,32 @@ def test_no_certified_point_near_an_unsafe_observation() -> None:
         bo.observe(p.x, 0.5)
 
 
-def _prior_state(explore_from: str) -> SafeBO:
+def _prior_state(explore_from: str, n_prior: int = 2) -> SafeBO:
     """x0 with a nearby prior point and a far, better prior point (a plateau the optimiser should not jump to)."""
     spec = ModelSpec(orders=(1, 2), lengthscale=0.2, signal_std=1.0, noise_std=0.02)
     cfg = SafeBOConfig(n_local=256, n_global=64, explore_from=explore_from, beta=2.0)
-    bo = SafeBO(SafetyModel(spec, 3, 0.0), cfg, np.ones(3, dtype=bool), np.random.default_rng(0),
-                x0=np.array([0.2, 0.2, 0.2]))
+    bo = build_safe_bo(SafetyModel(spec, 3, 0.0), cfg, np.ones(3, dtype=bool), np.random.default_rng(0),
+                       x0=np.array([0.2, 0.2, 0.2]), n_prior=n_prior)
     X = np.array([[0.22, 0.2, 0.21], [0.9, 0.9, 0.9], [0.2, 0.2, 0.2]])  # prior near, prior far, x0
-    bo.n_prior = 2
     bo.fit(X, np.array([0.3, 0.9, 0.3]))
     return bo
 
 
 def test_explore_from_x0_grows_the_search_region_from_the_start() -> None:
     bo = _prior_state("x0")
-    np.testing.assert_array_equal(region.connected(bo), [True, False, True])
+    np.testing.assert_array_equal(bo.region.connected(bo.obs), [True, False, True])
     far = np.array([0.9, 0.9, 0.9])
     for _ in range(5):
-        mu_d, _, lcb_d, ucb_d = bo.bounds(bo.X)
-        assert not any(np.array_equal(a, far) for a in region.anchors(bo, lcb_d, ucb_d))
+        mu_d, _, lcb_d, ucb_d = bo.bounds(bo.obs.X)
+        assert not any(np.array_equal(a, far) for a in bo.region.anchors(bo.obs, lcb_d, ucb_d, bo.rng))
         p = bo.propose()
         assert np.linalg.norm(p.x - far) > 0.5
         bo.observe(p.x, 0.3)
     # Control: under "all" the far, better prior point is an anchor at once.
     bo = _prior_state("all")
-    assert region.connected(bo).all()
-    mu_d, _, lcb_d, ucb_d = bo.bounds(bo.X)
-    assert any(np.array_equal(a, far) for a in region.anchors(bo, lcb_d, ucb_d))
+    assert bo.region.connected(bo.obs).all()
+    mu_d, _, lcb_d, ucb_d = bo.bounds(bo.obs.X)
+    assert any(np.array_equal(a, far) for a in bo.region.anchors(bo.obs, lcb_d, ucb_d, bo.rng))
 
 
 def test_exploitation_phase_takes_at_most_a_fifth_of_the_budget() -> None:
@@ -237,9 +236,8 @@ def test_exploitation_phase_takes_at_most_a_fifth_of_the_budget() -> None:
 
 def test_prior_points_chained_to_the_start_are_connected() -> None:
     """A resumed campaign passes its earlier trials as prior: a chain of small steps from x0 stays connected."""
-    bo = _prior_state("x0")
+    bo = _prior_state("x0", n_prior=6)
     chain = np.array([[0.2 + 0.08 * k, 0.2, 0.2] for k in range(1, 6)])  # 0.08 apart, up to 0.4 from x0
     X = np.vstack([chain, [[0.9, 0.9, 0.9]], [[0.2, 0.2, 0.2]]])
-    bo.n_prior = 6
     bo.fit(X, np.full(7, 0.3))
-    np.testing.assert_array_equal(region.connected(bo), [True] * 5 + [False, True])
+    np.testing.assert_array_equal(bo.region.connected(bo.obs), [True] * 5 + [False, True])

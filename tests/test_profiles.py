@@ -175,20 +175,3 @@ def test_px4_search_box_reaches_the_position_gain_that_halves_the_sitl_error():
     assert box[i, 1] == pytest.approx(1.9, rel=1e-6)
     assert np.all(box[:, 1] <= 2 * np.asarray(px4.default) * (1 + 1e-9))
     assert np.all(box[:, 0] >= np.asarray(px4.default) / 2 * (1 - 1e-9))
-
-def test_a_gain_option_may_name_the_gain_as_the_profile_does():
-    """``--option chatter_dim=ATT_PIT_D`` picks the gain by name (any case) instead of its index
-    in the profile's order; a name the profile does not tune is refused naming the choices, before any flight."""
-    from ksbo_mav.campaign.config import CampaignConfig, optimizer_options
-
-    planar, ap = load_profile("sim-planar"), load_profile("ardupilot-copter")
-    assert optimizer_options("sim", {"chatter_dim": "ATT_PIT_D"}, "ksbo", planar)["chatter_dim"] == \
-        planar.names.index("ATT_PIT_D")
-    assert optimizer_options("sim", {"chatter_dim": "att_pit_d"}, "ksbo", planar)["chatter_dim"] == 8
-    assert optimizer_options("sim", {"chatter_dim": 3}, "ksbo", planar)["chatter_dim"] == 3
-    with pytest.raises(InputError, match="not a tuned gain.*PSC_NE_POS_P"):
-        optimizer_options("local", {"chatter_dim": "ATT_PIT_D"}, "ksbo", ap)
-    CampaignConfig(dir="d", profile="sim-planar", options={"chatter_dim": "ATT_PIT_D"}).validate()
-    CampaignConfig(dir="d", options={"chatter_dim": "ATT_PIT_D"}).validate()  # profile known once connected
-    with pytest.raises(InputError, match="not a tuned gain"):
-        CampaignConfig(dir="d", profile="sim-planar", options={"chatter_dim": "ATT_ROLL_D"}).validate()

@@ -141,22 +141,3 @@ def test_stress_start_is_against_the_path_and_fails_fragile_gains():
     monitored = SimObjective(monitor=True).stress(FRAGILE)
     assert monitored.outcome.value != "complete"
     assert SimObjective(monitor=True).stress(load_profile("sim-planar").default).outcome.value == "complete"
-
-
-def test_a_monitored_trial_reports_the_pitch_chatter_symptom_and_the_problem_keeps_it():
-    """A0's pitch D gain drives a step-to-step pitch-rate limit cycle on the nominal plant (``pitch_chatter`` ≈ 1.4);
-    at 0.15 of its range the rate is smooth. ``Problem`` records each evaluation's symptoms."""
-    from ksbo_mav.objective import SimObjective
-    from ksbo_mav.opt.problem import Problem
-
-    obj = SimObjective(monitor=True, seed=0)
-    u = obj.profile.to_unit(obj.profile.default)
-    loud = obj.trial(obj.profile.default)
-    u[8] = 0.15
-    quiet = obj.trial(obj.profile.from_unit(u))
-    assert loud.symptoms["pitch_chatter"] > 1.2 and quiet.symptoms["pitch_chatter"] < 0.2
-    assert quiet.value > loud.value
-    lo, hi = np.array([g.min for g in obj.profile.gains]), np.array([g.max for g in obj.profile.gains])
-    problem = Problem(fun=obj, lower=lo, upper=hi, x0=obj.profile.to_unit(obj.profile.default), budget=2)
-    problem.evaluate_full(problem.x0)
-    assert problem.symptoms[0]["pitch_chatter"] > 1.2

@@ -60,8 +60,9 @@ class CampaignConfig:
                 raise InputError(f"--{name} must be in 1..255, got {v}")
         if not self.settle_s >= 0:
             raise InputError(f"settle_s must be >= 0, got {self.settle_s}")
-        names = load_profile(self.profile).names if self.profile is not None else None  # InputError if bad
-        options_for(self.method, optimizer_options("none", gain_option_indices(self.options, names)))
+        if self.profile is not None:
+            load_profile(self.profile)  # InputError if bad
+        options_for(self.method, optimizer_options("none", self.options))
         return self
 
     def to_dict(self) -> dict[str, Any]:
@@ -132,35 +133,10 @@ def profile_defaults(method: str, profile: Any) -> dict[str, Any]:
     return {}
 
 
-#: Optimiser options that pick one tuned gain. A campaign may name the gain as the vehicle names it (e.g.
-#: ``--option chatter_dim=ATT_PIT_D``) instead of giving its 0-based index in the profile's order.
-GAIN_OPTIONS = ("chatter_dim",)
-
-
-def gain_option_indices(user: dict[str, Any], names: list[str] | None) -> dict[str, Any]:
-    """``user`` with every :data:`GAIN_OPTIONS` value given as a gain name replaced by that gain's index in
-    ``names`` (the profile's tuned gains); InputError naming the choices for a name that is not tuned. With
-    ``names`` None (the profile is known only once the vehicle answers) a name is only checked to be one later:
-    it stands in as index 0 for validating the other options."""
-    out = dict(user)
-    for key in GAIN_OPTIONS:
-        v = out.get(key)
-        if not isinstance(v, str):
-            continue
-        if names is None:
-            out[key] = 0
-        elif v.upper() in (upper := [n.upper() for n in names]):
-            out[key] = upper.index(v.upper())
-        else:
-            raise InputError(f"--option {key}={v}: {v!r} is not a tuned gain of this profile; "
-                             f"choose one of {', '.join(names)} (or its 0-based index)")
-    return out
-
-
 def optimizer_options(prior_kind: str, user: dict[str, Any], method: str = "", profile: Any = None
                       ) -> dict[str, Any]:
     """Optimiser keyword options of a tuning campaign, by :func:`resolve`: the user's ``user`` (command line or
-    stored campaign; gain names resolved against the ``profile``: :func:`gain_option_indices`) over the
+    stored campaign) over the
     ``profile``'s for ``method`` (:func:`profile_defaults`) over the campaign's defaults.
 
     Every mission score here is bounded above by 1 (P(a) <= 1; 3-D: 1 - RMS / (2 RMS_baseline)), which is also
@@ -172,6 +148,4 @@ def optimizer_options(prior_kind: str, user: dict[str, Any], method: str = "", p
     base: dict[str, Any] = {"signal_std": 1.0, "y_max": 1.0}
     if prior_kind == "sim":
         base["explore_from"] = "all"
-    names = profile.names if profile is not None else None
-    return resolve(command_line=gain_option_indices(user, names), profile=profile_defaults(method, profile),
-                   default=base)
+    return resolve(command_line=user, profile=profile_defaults(method, profile), default=base)

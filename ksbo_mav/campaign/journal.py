@@ -31,14 +31,12 @@ class JournalEntry:
     restored: bool
     rms: float | None = None  # 3-D missions: lap-2 RMS tracking error (m)
     stress: bool = False  # flown from the hardest start (the optimiser's refly_stress re-flights)
-    symptoms: dict[str, float] | None = None  # what the flight showed beyond its score (ksbo_mav.symptoms)
 
     @classmethod
     def of(cls, kind: str, f: Flight) -> "JournalEntry":
         return cls(kind=kind, trial=int(f.meta["trial"]), x=tuple(float(v) for v in f.gains), P=float(f.P),
                    outcome=TrialOutcome(f.outcome), record=str(f.meta["record"]), restored=bool(f.meta["restored"]),
-                   rms=f.score.get("rms_lap2_m"), stress=bool(f.meta.get("stress_start", False)),
-                   symptoms=f.meta.get("symptoms"))
+                   rms=f.score.get("rms_lap2_m"), stress=bool(f.meta.get("stress_start", False)))
 
     @classmethod
     def parse(cls, doc: Any, where: str) -> "JournalEntry":
@@ -46,7 +44,7 @@ class JournalEntry:
             e = cls(kind=str(doc["kind"]), trial=int(doc["trial"]), x=tuple(float(v) for v in doc["x"]),
                     P=float(doc["P"]), outcome=TrialOutcome(doc["outcome"]), record=str(doc["record"]),
                     restored=bool(doc["restored"]), rms=None if doc.get("rms") is None else float(doc["rms"]),
-                    stress=bool(doc.get("stress", False)), symptoms=_symptoms(doc.get("symptoms")))
+                    stress=bool(doc.get("stress", False)))
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"{where}: not a journal entry ({exc})") from None
         if e.kind not in KINDS:
@@ -59,14 +57,6 @@ class JournalEntry:
         d["x"] = list(self.x)
         return json.dumps(d)
 
-
-def _symptoms(raw: Any) -> dict[str, float] | None:
-    """A journalled symptoms object (journals before issue 13 item AL have none)."""
-    if raw is None:
-        return None
-    if not isinstance(raw, dict):
-        raise TypeError(f"symptoms must be an object, got {type(raw).__name__}")
-    return {str(k): float(v) for k, v in raw.items()}
 
 
 class Journal:

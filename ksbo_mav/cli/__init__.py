@@ -12,6 +12,7 @@ import importlib
 import sys
 
 from ksbo_mav.errors import KsboError
+from ksbo_sim.errors import SimError
 
 #: Command modules, in the order `--help` lists them.
 COMMANDS: tuple[str, ...] = ("evaluate", "sim", "prior", "select", "tune", "report", "score", "compare", "restore",
@@ -43,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
-    except KsboError as exc:
+    except (KsboError, SimError) as exc:  # the simulator's errors are the user's to fix too
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into `head` and the like

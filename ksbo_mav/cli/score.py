@@ -1,7 +1,7 @@
 """`ksbo-mav score FILE`: score any flight log — ArduPilot DataFlash .BIN, PX4 .ulg, any ground station's .tlog.
 
 The format is detected from the file's content. A trial tlog written by this tool (it holds the ``ksbo f8`` trial
-markers) is re-scored exactly as the tuner scored it live (issue 7), plus the segment analysis below; any other
+markers) is re-scored exactly as the tuner scored it live, plus the segment analysis below; any other
 log is split into the segments where the vehicle tracked position targets (guided / auto / offboard) and each is
 scored against the autopilot's own logged target and, for the profile's figure-8, per lap against the analytic
 reference as well, with the profile's P (:mod:`ksbo_mav.flightlog`).
@@ -120,7 +120,7 @@ def _figure8_lines(f8: dict[str, Any]) -> list[str]:
 
 
 def _run_trial(args: argparse.Namespace) -> int:
-    """A trial tlog of our own: the exact live score (issue 7), plus the generic segment analysis."""
+    """A trial tlog of our own: the exact live score, plus the generic segment analysis."""
     from ksbo_mav.errors import InputError
     from ksbo_mav.mav.mission import Mission
     from ksbo_mav.mav.tlog import read_tlog

@@ -45,8 +45,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--option", action="append", metavar="KEY=VALUE",
                    help="optimiser option (repeatable; VALUE is JSON), e.g. --option max_aborts=4. The copter "
                         "profiles ([safety] backup_covers_trials) give ksbo-adaptive backup_beta=0.5: it may fly "
-                        "uncertified gains the monitor's backup covers; --option backup_beta=null turns that off "
-                        "(docs/optimizer.md)")
+                        "uncertified gains the monitor's backup covers; --option backup_beta=null turns that off. "
+                        "Every option with its default and allowed values: docs/options.md (an unknown KEY prints "
+                        "the list)")
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
     p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end (not if a "
                    "confirmation flight of them aborted, crashed or scored P < 0: then the baseline is restored and "

@@ -1,4 +1,4 @@
-"""Score any flight log: ArduPilot DataFlash ``.BIN``, PX4 ``.ulg`` and any ground station's ``.tlog`` (issue 15).
+"""Score any flight log: ArduPilot DataFlash ``.BIN``, PX4 ``.ulg`` and any ground station's ``.tlog``.
 
 ``read_log(path)`` detects the format by content and returns a :class:`FlightLog` (position, the autopilot's
 own target, received setpoints, modes, trial markers — one vehicle clock); ``analyse(log, mission)`` finds the

@@ -1,4 +1,4 @@
-"""Acquisition rules of :class:`ksbo_mav.opt.safe_bo.SafeBO` as small objects (BoTorch style).
+"""Acquisition rules of the safe optimiser as small objects (BoTorch style).
 
 Each rule is called on candidates ``Z`` (m, d) and returns ``(score (m,), feasible (m,) bool)``; the optimiser
 scores its candidate set with it, refines the best few under the same rule (``candidates.refine`` only accepts
@@ -47,16 +47,14 @@ class PosteriorMean:
 
 @dataclass
 class SafeUCB:
-    """The safe UCB maximiser: ``μ + β_ucb σ`` over the feasible set; with ``margin`` > 0 over the points whose
-    LCB clears the safety threshold by ``margin`` as well."""
+    """The safe UCB maximiser: ``μ + β_ucb σ`` over the feasible set."""
 
     post: Posterior
     kind: str = "ucb"
-    margin: float = 0.0
 
     def __call__(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         _, _, lo, up = self.post.bounds(Z)
-        return up, self.post.feasible(Z, lo - self.margin)
+        return up, self.post.feasible(Z, lo)
 
 
 @dataclass

@@ -2,9 +2,9 @@
 
 :class:`ksbo_mav.opt.options.Options` (what ``optimize(**options)`` validates) is the composition of these
 dataclasses, so a field such as ``beta`` has one default whether it is read through ``Options`` or through the
-:class:`SafeBOConfig` the state machine receives (issue 14: they used to differ, β 4 vs 2).
+:class:`SafeBOConfig` the state machine receives.
 
-Defaults were tuned on the planar quadrotor, tuning seeds 100+ (BENCHMARKS.md, issues 5 and 13).
+Defaults were tuned on the planar quadrotor, tuning seeds 100+ (benchmarks/notes/plants.md).
 """
 
 from __future__ import annotations
@@ -43,34 +43,6 @@ class SafeBOConfig:
         explore_from: ``"x0"`` (clouds grow from the start and the optimiser's own evaluations; prior points join
             once reached; no global points) or ``"all"``.
         exploit_beta: see ``exploit_last``.
-        beta_min: None = certify with the fixed ``beta``. A number: certify with a β calibrated on the run's own
-            one-step-ahead errors, ``beta_margin`` × their ``beta_quantile`` quantile clipped to [beta_min, beta],
-            once ``beta_min_points`` queries were scored, or ``beta_margin`` × the largest of the last
-            ``beta_window`` scores if larger, clipped to [beta_min, beta_cap] (None: beta) (opt.calibration). A
-            beta_min at or above beta keeps beta as the floor (only the widening after a bad flight acts).
-        beta_quantile, beta_margin, beta_min_points, beta_window, beta_cap: see ``beta_min``.
-        ucb_margin: the safe-UCB phase queries only points whose LCB clears ``p_min`` by this much (the objective's
-            units) while any candidate does (else the plain safe set): the UCB's maximiser sits on the certified set's
-            edge, where the GP knows least. 0 = off (the plain safe set).
-        line_every: every this many BO iterations before exploitation, query a coordinate line through the
-            incumbent instead (the gains in turn; opt.lines): the certified set then grows along every gain, not
-            only the steepest. 0 = off.
-        chatter_dim: ≥ 0: every ``chatter_every``-th BO iteration before exploitation, while the incumbent's flights
-            show the pitch rate cycling (symptom ``chatter_symptom`` above ``chatter_threshold``; the default
-            ``pitch_line``: a narrow high-frequency line holds most of the rate's power, the limit cycle a too-high D
-            gain drives; ksbo_mav.symptoms), query the lowest certified value of this gain (the D gain) on the line
-            through the incumbent (opt.lines). −1 = off.
-        chatter_every, chatter_threshold, chatter_symptom, chatter_step: see ``chatter_dim``. Item AL's rule was
-            ``chatter_symptom`` "pitch_chatter" (noise alone trips it), threshold 1.0 and step 0.05; item AM's
-            steps of 0.025 stop nearer the cycle's onset (mass +30 %: crashes in 3 of 10 seeds with 0.05, 1 with
-            0.025).
-        chatter_floor: with ``chatter_dim``, once a flight has cycled no query sets that gain more than this (unit
-            cube) below the lowest value a cycling flight had (opt.symptom_rule); 0 = no floor. Item AM: 0.05 did
-            not cut mass +30 %'s crashes beyond what the 0.025 steps did and cost on the nominal tuning seeds.
-        lipschitz: None = certify with the GP's lower bound. A number L: certify with LoSBO's Lipschitz bound instead,
-            ``max_i (y_i − lipschitz_noise − L‖x − x_i‖) ≥ p_min`` over the flown points (unit cube, Euclidean;
-            y_i the smallest value flown at x_i; opt.lipschitz). The GP still chooses the query inside that set.
-        lipschitz_noise: the noise bound E of ``lipschitz`` (the objective's units).
     """
 
     beta: float = 4.0
@@ -91,33 +63,15 @@ class SafeBOConfig:
     cap_mean: bool = True
     recommend_noise: float | None = 0.2
     y_max: float | None = None
-    # Tuned on seeds 100-119 (issue 5): the last 20 evaluations exploit; growing the search from x0.
+    # Tuned on seeds 100-119: the last 20 evaluations exploit; growing the search from x0.
     exploit_last: int = 20
     exclusion_radius: float = 0.05
     explore_from: str = "x0"
     exploit_beta: float = 0.0
-    beta_min: float | None = None
-    # The calibration measured in BENCHMARKS.md (issue 13, item S) with beta_min 4: an option, not a default.
-    beta_quantile: float = 0.95
-    beta_margin: float = 1.0
-    beta_min_points: int = 10
-    beta_window: int = 5
-    beta_cap: float | None = 10.0
-    ucb_margin: float = 0.0
-    line_every: int = 0
-    chatter_dim: int = -1
-    chatter_every: int = 3
-    chatter_threshold: float = 0.5
-    chatter_symptom: str = "pitch_line"
-    chatter_floor: float = 0.0
-    chatter_step: float = 0.025
-    lipschitz: float | None = None
-    lipschitz_noise: float = 0.02
-
 
 @dataclass(frozen=True)
 class AdaptiveConfig:
-    """Issue 13: learned safety scale, trust region, abort-and-restore exploration, re-flown recommendation.
+    """Learned safety scale, trust region, abort-and-restore exploration, re-flown recommendation.
 
     Attributes:
         censor_aborts: aborted and crashed trials are censored: the GPs never see their value; they enter the
@@ -140,7 +94,7 @@ class AdaptiveConfig:
             then known not to catch this plant's failures). Off by default: on the planar suite the failures are
             mostly fast pitch divergences the backup cannot catch. A tuning campaign sets it (0.5) for vehicle
             profiles that declare ``[safety] backup_covers_trials`` (outer loops clipped by a lean-angle limit;
-            ``ksbo_mav.campaign.config.profile_defaults``) — BENCHMARKS.md, issue 13.
+            ``ksbo_mav.campaign.config.profile_defaults``; benchmarks/notes/plants.md).
         refly_last: the last this many evaluations (at most a tenth of the budget) re-fly the ``refly_top`` best
             completed points (by the recommendation's criterion, and the best single flight); the recommendation
             is then the best mean over each point's flights (once any trial failed: the best expected score under
@@ -148,18 +102,14 @@ class AdaptiveConfig:
         refly_stress: where the objective has a stress start (``fun.stress(x)``, e.g.
             :meth:`ksbo_mav.objective.SimObjective.stress`, a planar MAVLink campaign's moving starts), the re-fly
             phase first flies each candidate once from it, and only candidates that pass are re-flown and can be
-            recommended (opt.stress): gains that fail from part of the starts fail there first. An objective
+            recommended (opt.refly): gains that fail from part of the starts fail there first. An objective
             without ``stress`` (the copters) re-flies as usual. On in ``ksbo-adaptive`` (opt.options).
-        stress_trials: every trial of the search (not the re-fly phase's re-flights) flies from the objective's
-            stress start, where it has one: the GPs then see each gain set's score from one fixed, hard start (a
-            function of the gains alone, without the bistable scatter of random starts), and gains that fail from
-            part of the starts fail there first. Off by default (BENCHMARKS.md, issue 13, item AN).
         reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
             by marginal likelihood (Algorithm 1 stays the first selection); 0 = never (the paper's once-only
             selection). ``ksbo`` and ``ksbo-adaptive`` default to 10 (opt.options).
         exclusion_growth, exclusion_max: the exclusion ball (``exclusion_radius``) of a bad trial grows
             ×``exclusion_growth`` (up to ``exclusion_max``) each time a later bad trial lands within twice its
-            radius (opt.region.exclusion_radii); 1 = fixed balls. Fallbacks then avoid the balls too.
+            radius (opt.exclusion); 1 = fixed balls. Fallbacks then avoid the balls too.
         failure_scale_shrink: each trial at new gains that aborts or crashes multiplies the safety lengthscales
             (learnt, or the fixed one with ``learn_safety_scale`` off) by this (a certified point failed: the GP
             claimed too much smoothness); 1 = off.
@@ -169,12 +119,6 @@ class AdaptiveConfig:
             lengthscale along each dimension is raised to ``ard_acquisition`` × the learnt safety lengthscale
             there, so a step along a dimension the data show to be flat earns little uncertainty bonus. Safety (the
             LCB) stays with the main and safety GPs. 0 = the main GP's UCB.
-        safety_noise_max: > 0: the safety GP's noise std is learnt with its lengthscales, between the fixed value
-            and ``safety_noise_max`` × its signal std (flight-to-flight scatter otherwise forces short scales);
-            0 = fixed.
-        safety_scale_floor: the learnt safety lengthscales are raised to at least this (before the failure shrink;
-            the start too): a learnt scale may be longer than ``ksbo``'s fixed one where the data are flat, never
-            shorter until a trial fails. 0 = no floor.
     """
 
     censor_aborts: bool = False
@@ -197,15 +141,12 @@ class AdaptiveConfig:
     refly_last: int = 0
     refly_top: int = 3
     refly_stress: bool = False
-    stress_trials: bool = False
     reselect_every: int = 0
     exclusion_growth: float = 1.0
     exclusion_max: float = 0.2
     failure_scale_shrink: float = 1.0
     unsafe_scale_shrink: float = 1.0
     ard_acquisition: float = 0.0
-    safety_noise_max: float = 0.0
-    safety_scale_floor: float = 0.0
 
 
 @dataclass(frozen=True)

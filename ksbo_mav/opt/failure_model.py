@@ -1,9 +1,8 @@
-"""What the adaptive safe BO learns about failures (issue 13): the safety scale and the chance a trial aborts.
+"""What the adaptive safe BO learns about failures: the safety scale and the chance a trial aborts.
 
 * :func:`learn_scales` — per-dimension lengthscales of the SE-ARD safety GP by marginal likelihood with a
-  log-normal hyperprior, on completed trials, and optionally the noise (bounded below by the fixed value); the
-  signal scale stays fixed, so far from the data the safety bound still reverts to "on the threshold, full prior
-  uncertainty".
+  log-normal hyperprior, on completed trials; the signal and noise scales stay fixed, so far from the data the
+  safety bound still reverts to "on the threshold, full prior uncertainty".
 * :class:`FailureModel` — the probability that a trial at z aborts (any non-complete outcome) and that it
   crashes (the backup did not recover): a kernel-weighted Beta–Bernoulli estimate
   ``p(z) = (a + Σ w_i f_i) / (a + b + Σ w_i)``, ``w_i = exp(−½ Σ_j ((z_j − x_ij)/ℓ_j)²)``, with the safety
@@ -25,13 +24,12 @@ def learn_scales(
     X: np.ndarray, g: np.ndarray, signal_std: float, noise_std: float, start: np.ndarray,
     prior: tuple[float, float] = (0.1, 1.0), bounds: tuple[float, float] = (0.01, 1.0),
     rng: np.random.Generator | None = None, extent_factor: float | None = 2.0, restarts: int = 1,
-    noise_max: float | None = None,
 ) -> tuple[np.ndarray, float]:
-    """ML-II (MAP) per-dimension lengthscales of an SE-ARD GP, signal fixed; the noise too if ``noise_max``.
+    """ML-II (MAP) per-dimension lengthscales of an SE-ARD GP, signal and noise fixed.
 
     Args:
         X: (n, d) unit-cube inputs of completed trials; g: (n,) safety margins y − p_min.
-        signal_std, noise_std: the GP's scales (``noise_std`` is the noise's lower bound when it is learnt).
+        signal_std, noise_std: the GP's scales.
         start: (d,) current lengthscales (first start).
         prior: (median, log-sd) of the log-normal hyperprior on each lengthscale. bounds: lengthscale bounds.
         extent_factor: no lengthscale exceeds this many times the extent (max − min) of the data along its
@@ -39,37 +37,30 @@ def learn_scales(
             it has not seen. With few points the marginal likelihood prefers long scales (a near-constant
             function explains two close points best); this cap makes the safe set grow with the data instead.
         restarts: random starts besides ``start`` (0 = a warm-started refit from the previous optimum).
-        noise_max: learn the noise std in [``noise_std``, ``noise_max``]. With the noise held at a small fixed
-            value, flight-to-flight scatter (sensor noise, gusts) can only be explained by short lengthscales,
-            and the safe set then stops growing.
     Returns:
         (d,) lengthscales (``start`` clipped to the caps if every start failed) and the noise std.
     """
     upper = np.full(X.shape[1], bounds[1])
     if extent_factor is not None:
         upper = np.clip(extent_factor * (X.max(axis=0) - X.min(axis=0)), bounds[0], bounds[1])
-    ls, noise = _ml_scales(X, g, signal_std, noise_std, start, prior, bounds, rng, restarts, noise_max)
-    return np.minimum(ls, upper), noise
+    ls = _ml_scales(X, g, signal_std, noise_std, start, prior, bounds, rng, restarts)
+    return np.minimum(ls, upper), float(noise_std)
 
 
 def _ml_scales(X: np.ndarray, g: np.ndarray, signal_std: float, noise_std: float, start: np.ndarray,
                prior: tuple[float, float], bounds: tuple[float, float], rng: np.random.Generator | None,
-               restarts: int, noise_max: float | None) -> tuple[np.ndarray, float]:
+               restarts: int) -> np.ndarray:
     d = X.shape[1]
     v = float(signal_std) ** 2
     k = AdditiveKernel(dim=d, orders=(d,), lengthscales=np.clip(np.asarray(start, float), *bounds),
                        order_variances=np.array([v]), normalize=True, lengthscale_bounds=bounds,
                        variance_bounds=(v * (1 - 1e-9), v * (1 + 1e-9)))
-    learn_noise = noise_max is not None and noise_max > noise_std
-    n_bounds = (float(noise_std) ** 2, float(noise_max) ** 2) if learn_noise else (1e-6, 1.0)
     try:
-        res = fit_hyperparameters(k, X, np.asarray(g, float), float(noise_std) ** 2, noise_bounds=n_bounds,
-                                  optimize_noise=learn_noise, lengthscale_prior=prior, n_restarts=restarts,
-                                  rng=rng)
+        res = fit_hyperparameters(k, X, np.asarray(g, float), float(noise_std) ** 2, noise_bounds=(1e-6, 1.0),
+                                  optimize_noise=False, lengthscale_prior=prior, n_restarts=restarts, rng=rng)
     except CholeskyError:
-        return np.asarray(start, dtype=float), float(noise_std)
-    ls = np.asarray(res.kernel.lengthscales, dtype=float).reshape(-1) * np.ones(d)
-    return ls, float(np.sqrt(res.noise)) if learn_noise else float(noise_std)
+        return np.asarray(start, dtype=float)
+    return np.asarray(res.kernel.lengthscales, dtype=float).reshape(-1) * np.ones(d)
 
 
 @dataclass

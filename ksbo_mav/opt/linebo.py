@@ -13,13 +13,48 @@ from __future__ import annotations
 
 import numpy as np
 
-from ksbo_mav.opt.lines import line_grid, line_query, safe_interval
+from ksbo_mav.opt.build import build_safe_bo
 from ksbo_mav.opt.model import SafetyModel
 from ksbo_mav.opt.options import Options
 from ksbo_mav.opt.problem import Problem, build_result
 from ksbo_mav.opt.result import OptimizeResult
-from ksbo_mav.opt.safe_bo import SafeBO
 from ksbo_mav.opt.safe_methods import bo_config, model_spec
+
+
+def line_grid(x: np.ndarray, direction: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the segment {x + s·direction} ∩ [0,1]^d on an n-point grid; returns s (n,), points (n, d)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = np.where(direction != 0, (0.0 - x) / direction, -np.inf)
+        t2 = np.where(direction != 0, (1.0 - x) / direction, np.inf)
+    lo = np.max(np.where(direction != 0, np.minimum(t1, t2), -np.inf))
+    hi = np.min(np.where(direction != 0, np.maximum(t1, t2), np.inf))
+    s = np.linspace(lo, hi, n)
+    s = np.unique(np.append(s, 0.0))  # x itself is on the grid
+    return s, np.clip(x[None, :] + s[:, None] * direction[None, :], 0.0, 1.0)
+
+
+def safe_interval(safe: np.ndarray, i0: int) -> tuple[int, int]:
+    """Inclusive index range of the run of True in ``safe`` (n,) containing ``i0``; (i0, i0) if ``safe[i0]`` is
+    False."""
+    if not safe[i0]:
+        return i0, i0
+    lo = i0
+    while lo > 0 and safe[lo - 1]:
+        lo -= 1
+    hi = i0
+    while hi < len(safe) - 1 and safe[hi + 1]:
+        hi += 1
+    return lo, hi
+
+
+def line_query(ucb: np.ndarray, sd: np.ndarray, lo: int, hi: int, i0: int) -> int:
+    """Grid index to query on the certified interval [lo, hi] ∋ i0 (LineBO's rule): the UCB maximiser, unless an
+    end of the interval (an expander) has a wider confidence interval than it."""
+    idx = np.arange(lo, hi + 1)
+    ia = int(idx[int(np.argmax(ucb[idx]))])
+    ends = [i for i in (lo, hi) if i != i0]
+    ie = max(ends, key=lambda i: sd[i], default=None)
+    return ie if ie is not None and sd[ie] > sd[ia] else ia
 
 
 def run_linebo(problem: Problem, opts: Options, seed: int | None) -> OptimizeResult:
@@ -27,12 +62,12 @@ def run_linebo(problem: Problem, opts: Options, seed: int | None) -> OptimizeRes
     d = problem.dim
     rng = np.random.default_rng(seed)
     model = SafetyModel(model_spec(opts, (d,)), d, problem.p_min, seed=seed)
-    bo = SafeBO(model, bo_config(opts), np.ones(d, dtype=bool), rng, x0=problem.x0)
+    bo = build_safe_bo(model, bo_config(opts), np.ones(d, dtype=bool), rng, x0=problem.x0)
     bo.fit(*problem.data())
     n_lines = 0
     while problem.remaining > 0:
         i_best, mu_b, lcb_b = bo.recommend()
-        xb = bo.X[i_best].copy()
+        xb = bo.obs.X[i_best].copy()
         if opts.directions == "coordinate":
             direction = np.zeros(d)
             direction[n_lines % d] = 1.0
@@ -51,8 +86,8 @@ def run_linebo(problem: Problem, opts: Options, seed: int | None) -> OptimizeRes
             if not ok[i0]:
                 # x_b itself is no longer certified: re-evaluate the best-LCB observation (fallback).
                 bo.fallbacks += 1
-                j = int(np.argmax(bo.bounds(bo.X)[2]))
-                x = bo.X[j].copy()
+                j = int(np.argmax(bo.bounds(bo.obs.X)[2]))
+                x = bo.obs.X[j].copy()
             else:
                 if np.max(ucb[lo : hi + 1]) - lcb_b < 0.01 * abs(mu_b):
                     break

@@ -15,14 +15,34 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import Enum
 from typing import Any
 
 import numpy as np
 
 from ksbo_mav.errors import ObjectiveError
-from ksbo_sim.monitor import Outcome
 
 __all__ = ["Evaluation", "Outcome", "as_evaluation"]
+
+
+class Outcome(str, Enum):
+    """How a trial ended. ``str`` valued, so ``Outcome.ABORTED == "aborted"`` and it serialises as text; a
+    simulator's or vehicle layer's own outcome enum with the same values converts through :meth:`parse`."""
+
+    COMPLETE = "complete"
+    ABORTED = "aborted"
+    CRASHED = "crashed"
+
+    @classmethod
+    def parse(cls, value: "Enum | str") -> "Outcome":
+        """``Outcome`` from itself, another enum with the same values, or text ("completed" and "ok" are
+        accepted for "complete")."""
+        if isinstance(value, Outcome):
+            return value
+        v = str(value.value if isinstance(value, Enum) else value).strip().lower()
+        if v in ("completed", "ok"):
+            return cls.COMPLETE
+        return cls(v)
 
 
 @dataclass(frozen=True)
@@ -31,8 +51,6 @@ class Evaluation:
 
     value: float | None
     outcome: Outcome = Outcome.COMPLETE
-    # What the flight showed beyond its score, e.g. {"pitch_chatter": 1.37} (ksbo_mav.symptoms); None: not measured.
-    symptoms: dict[str, float] | None = None
 
     @property
     def censored(self) -> bool:
@@ -53,7 +71,7 @@ def as_evaluation(raw: Any, index: int, x: np.ndarray) -> Evaluation:
             value = _number(value, where)
         elif outcome is Outcome.COMPLETE:
             raise ObjectiveError(f"fun returned a complete Evaluation without a value at {where}")
-        return Evaluation(value, outcome, raw.symptoms)
+        return Evaluation(value, outcome)
     return Evaluation(_number(raw, where), Outcome.COMPLETE)
 
 

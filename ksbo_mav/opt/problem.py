@@ -49,7 +49,6 @@ class Problem:
     X: list[np.ndarray] = field(default_factory=list, init=False)
     y: list[float] = field(default_factory=list, init=False)
     outcomes: list[Outcome] = field(default_factory=list, init=False)
-    symptoms: list[dict[str, float] | None] = field(default_factory=list, init=False)  # per evaluation
     seconds: list[float] = field(default_factory=list, init=False)
     stopped: bool = field(default=False, init=False)
     _t_last: float = field(default=0.0, init=False)
@@ -118,7 +117,6 @@ class Problem:
         self.X.append(u)
         self.y.append(float(value))
         self.outcomes.append(ev.outcome)
-        self.symptoms.append(ev.symptoms)
         if self.callback is not None and self.callback(i, x, float(value)):
             self.stopped = True
         self._t_last = time.perf_counter()

@@ -1,28 +1,20 @@
 """The driver loop of the safe GP methods: propose → fly → observe, with the abort budget and the re-fly phase.
 
 * Each trial goes through ``Problem.evaluate_full``, so its outcome (complete / aborted / crashed) reaches the
-  state machine (with ``censor_aborts`` aborted and crashed trials are censored: opt.safe_bo).
+  state machine (with censoring, aborted and crashed trials never enter the GPs as values: opt.observations).
 * ``max_aborts`` is a hard cap: once that many trials of the run aborted or crashed, the run ends (no further
   trial could be guaranteed not to abort); the recommendation is made from the data.
-* Re-fly phase (``refly_last`` > 0): the last evaluations re-fly the ``refly_top`` best completed points (by the
-  recommendation's criterion) in turn; the recommendation is then the candidate with the best mean over all its
-  flights (once any trial failed: by expected score under the failure model, opt.recommend). A candidate that
-  fails is not re-flown again. Bistable gains that flew well once rarely survive this. With ``refly_stress`` (and
-  an objective with ``fun.stress``) each candidate first flies once from the hardest start, and only those that
-  pass are re-flown and can be recommended (opt.stress; proposals of kind "stress").
-* ``stress_trials``: every trial of the search flies from that hardest start as well (the re-fly phase's
-  re-flights keep the objective's own starts).
+* The re-fly phase (opt.refly) takes the last evaluations: the best candidates are re-flown (after a stress flight
+  each where the objective has ``fun.stress``), and the recommendation is the one that held up.
 """
 
 from __future__ import annotations
 
 from typing import Callable
 
-from ksbo_mav.opt.problem import Problem
 from ksbo_mav.opt.outcome import Outcome
-from ksbo_mav.opt.recommend import next_refly, refly_candidates, refly_count
+from ksbo_mav.opt.problem import Problem
 from ksbo_mav.opt.safe_bo import Proposal, SafeBO
-from ksbo_mav.opt.stress import next_flight, record_stress, screen_order
 
 
 def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
@@ -36,27 +28,26 @@ def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
     for checking the model's calibration (how often was a certified point unsafe?).
     """
     log: list[dict] = []
-    n_refly = refly_count(bo)
-    stress = bo.adaptive.refly_stress and problem.can_stress
-    stress_trials = bo.adaptive.stress_trials and problem.can_stress  # every search trial from the hard start
-    cap = bo.adaptive.max_aborts
+    refly = bo.refly
+    n_refly = refly.count()
     while problem.remaining > 0 and (max_iters is None or bo.iteration < max_iters):
-        if cap is not None and bo.aborts >= cap:
+        if bo.max_aborts is not None and bo.obs.aborts >= bo.max_aborts:
             problem.stop()
             break
         bo.remaining = problem.remaining - n_refly
+        screen = False
         if problem.remaining <= n_refly:
-            if bo.refly_set is None:
-                bo.refly_set = screen_order(bo, refly_candidates(bo)) if stress else refly_candidates(bo)
-            k = n_refly - problem.remaining
-            i, screen = next_flight(bo, k) if stress else (next_refly(bo, k), False)
-            p = Proposal(bo.X[i].copy(), "stress" if screen else "refly", float("nan"), float("nan"), float("nan"))
-            hard = screen  # the screen's flights from the hardest start, re-flights from the objective's own
+            if refly.chosen is None:
+                refly.start(bo.criterion(), bo.obs, bo.certificate)
+            i, screen = refly.next_flight(n_refly - problem.remaining, bo.criterion, bo.obs, bo.certificate)
+            nan = float("nan")
+            p = Proposal(bo.obs.X[i].copy(), "stress" if screen else "refly", nan, nan, nan)
         else:
-            p, screen, hard = bo.propose(), False, stress_trials
-        ev, y = problem.evaluate_full(p.x, stress=hard)
+            p = bo.propose()
+        # The screen's flights go from the hardest start, the re-flights from the objective's own starts.
+        ev, y = problem.evaluate_full(p.x, stress=screen)
         if screen:
-            record_stress(bo, i, ev.outcome is Outcome.COMPLETE and y >= bo.p_min)
+            refly.record_stress(i, ev.outcome is Outcome.COMPLETE and y >= bo.p_min)
         bo.observe(p.x, y, ev.outcome)
         log.append({"kind": p.kind, "mu": p.mu, "sd": p.sd, "lcb": p.lcb, "y": y, "outcome": ev.outcome.value})
         if after is not None:

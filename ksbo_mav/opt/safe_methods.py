@@ -22,13 +22,13 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.errors import UnsafeStartError
+from ksbo_mav.opt.build import build_safe_bo
 from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig, part
 from ksbo_mav.opt.model import ModelSpec, SafetyModel, active_mask
 from ksbo_mav.opt.options import Options
 from ksbo_mav.opt.outcome import Outcome
 from ksbo_mav.opt.problem import Problem, build_result
 from ksbo_mav.opt.result import OptimizeResult
-from ksbo_mav.opt.recommend import final_choice
 from ksbo_mav.opt.runner import run_safe_bo
 from ksbo_mav.opt.safe_bo import SafeBO
 from ksbo_mav.opt.selection import KernelSelection, reselect_by_evidence, select_kernel
@@ -75,9 +75,9 @@ def _build(
         safety = SafetyModel(sspec, d, problem.p_min, seed=seed)
     elif opts.safety_kernel not in ("same", "se"):
         raise ValueError(f"unknown safety_kernel {opts.safety_kernel!r}")
-    return SafeBO(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
-                  safety_model=safety, n_prior=len(problem.prior_y), budget=problem.budget,
-                  adaptive=part(opts, AdaptiveConfig), symptoms=problem.symptoms)
+    return build_safe_bo(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
+                         safety_model=safety, n_prior=len(problem.prior_y), budget=problem.budget,
+                         adaptive=part(opts, AdaptiveConfig), stress=problem.can_stress)
 
 
 def _outcome_masks(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
@@ -86,13 +86,6 @@ def _outcome_masks(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
     done = np.array([True] * m + [o is Outcome.COMPLETE for o in problem.outcomes], dtype=bool)
     crashed = np.array([False] * m + [o is Outcome.CRASHED for o in problem.outcomes], dtype=bool)
     return done, crashed
-
-
-def _switch_orders(bo: SafeBO, orders: tuple[int, ...]) -> None:
-    """Rebuild the main GP with new orders (scales kept) and refit it on the completed data."""
-    bo.model = bo.model.variant(orders=tuple(orders))
-    bo.model.fit(bo.X[bo.gp_mask], bo.y[bo.gp_mask])
-    bo.refresh_acquisition()
 
 
 def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | None) -> OptimizeResult:
@@ -125,11 +118,11 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
     every = opts.reselect_every if ksbo and opts.orders is None and sel.dims is None else 0
 
     def after(b: SafeBO) -> None:
-        if every and b.iteration % every == 0 and b.complete.sum() >= 2:
-            new = reselect_by_evidence(b.model, b.X[b.gp_mask], b.y[b.gp_mask], opts, b.iteration)
+        if every and b.iteration % every == 0 and b.obs.complete.sum() >= 2:
+            new = reselect_by_evidence(b.model, *b.obs.gp_data(), opts, b.iteration)
             selections.append(new)
             if new.changed:
-                _switch_orders(b, new.orders)
+                b.surrogate.switch_orders(new.orders, b.obs)
 
     reselect = ksbo and opts.select_at > 0 and opts.orders is None
     log = run_safe_bo(problem, bo, max_iters=opts.select_at if reselect else None, after=after)
@@ -145,19 +138,18 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
         bo.fit(X, y, done, crashed)
         log += run_safe_bo(problem, bo, after=after)
     info["proposals"] = log
-    info["calibration"] = {"scores": bo.calibration.scores, "beta": bo.beta}
     if len(selections) > 1:
         info["reselections"] = [s.as_dict() for s in selections[1:]]
         info["reselection_changes"] = sum(s.changed for s in selections[1:])
-    if bo.scale_history:
-        info["safety_lengthscales"] = bo.scale_history
-    if bo.tr is not None:
-        info["trust_region"] = {"radius": bo.tr.radius, "history": bo.tr.history}
-    if problem.stopped and opts.max_aborts is not None and bo.aborts >= opts.max_aborts:
+    if bo.surrogate.scale.history:
+        info["safety_lengthscales"] = bo.surrogate.scale.history
+    if bo.trust_region is not None:
+        info["trust_region"] = {"radius": bo.trust_region.radius, "history": bo.trust_region.history}
+    if problem.stopped and opts.max_aborts is not None and bo.obs.aborts >= opts.max_aborts:
         info["stopped"] = f"max_aborts={opts.max_aborts} reached"
-    if bo.refly_set is not None:
-        info["reflown"] = [problem.to_physical(bo.X[i]).tolist() for i in bo.refly_set]
-    i, mu, lcb = final_choice(bo)
+    if bo.refly.chosen is not None:
+        info["reflown"] = [problem.to_physical(bo.obs.X[i]).tolist() for i in bo.refly.chosen]
+    i, mu, lcb = bo.final_choice()
     info["gp_train_y"] = (np.asarray(bo.model.gp.y_train_) + problem.p_min).tolist()  # completed trials only
     info["signal_std"] = bo.model.signal_std
     info["noise_std"] = bo.model.noise_std

@@ -1,4 +1,4 @@
-"""ksbo's kernel selection inside the optimiser: Algorithm 1 first, then (issue 13) re-selection by evidence.
+"""ksbo's kernel selection inside the optimiser: Algorithm 1 first, then re-selection by evidence.
 
 * :func:`select_kernel` — the paper's selection on the data available before BO: additive orders ranked by mean
   C_ree (Algorithm 1, repeated), optionally dimensions per kept order; returns a typed :class:`KernelSelection`.

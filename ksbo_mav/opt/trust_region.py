@@ -1,4 +1,4 @@
-"""Trust region of the adaptive safe BO (issue 13; SCBO/TuRBO-style): a box around the incumbent whose size
+"""Trust region of the adaptive safe BO (SCBO/TuRBO-style): a box around the incumbent whose size
 follows the outcomes of the trials flown in it.
 
 State machine: a completed trial that improves the incumbent is a *success*; ``success_tol`` successes in a row
@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ksbo_sim.monitor import Outcome
+from ksbo_mav.opt.outcome import Outcome
 
 
 @dataclass

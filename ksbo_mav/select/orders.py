@@ -19,7 +19,7 @@ DEFAULT_MU = 0.1
 DEFAULT_LENGTHSCALE = 0.2
 #: Default c / l. The paper gives no c. With c = l (exact) C_ree is a training error that favours flexible
 #: high orders; at c ~ 0.8 l the Nyström truncation penalises high orders, and on synthetic functions of known
-#: structure (additive, sum of 2-D terms) the top order matches the true one (see BENCHMARKS.md, issue 4).
+#: structure (additive, sum of 2-D terms) the top order matches the true one (benchmarks/kernel-selection).
 DEFAULT_COLUMN_FRACTION = 0.8
 
 

@@ -13,16 +13,13 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
 from ksbo_sim.mavlink.flight import SEV_WARNING
 from ksbo_sim.mavlink.personality import Mode
 from ksbo_sim.mavlink.telemetry import AUTOPILOT_VERSION
-
-if TYPE_CHECKING:
-    from ksbo_sim.mavlink.server import Server
 
 ACCEPTED, TEMPORARILY_REJECTED, DENIED, UNSUPPORTED, FAILED = 0, 1, 2, 3, 4
 CMD_RTL, CMD_LAND, CMD_TAKEOFF, CMD_DO_SET_MODE, CMD_ARM = 20, 21, 22, 176, 400
@@ -36,7 +33,9 @@ FTP_ERR_UNKNOWN_COMMAND, FTP_ERR_FILE_NOT_FOUND = 7, 10
 
 
 class Commands:
-    def __init__(self, server: Server) -> None:
+    """COMMAND_LONG handling of a :class:`ksbo_sim.mavlink.server.Server` (which owns this object)."""
+
+    def __init__(self, server: Any) -> None:
         self.s = server
 
     def _refuse(self, result: int, reason: str | None) -> int:

@@ -1,0 +1,139 @@
+"""The package's structure: no import cycle anywhere in ksbo_mav, the optimiser core (gp/, select/, opt/) reaches
+no vehicle, simulator or campaign code, ksbo_sim never imports ksbo_mav, and no module outgrows ~300 lines.
+
+The graph is read from the source (every import statement, at module level or inside a function or a
+TYPE_CHECKING block: a deferred import is still a dependency), so the test needs no import side effects."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = {"ksbo_mav": ROOT / "ksbo_mav", "ksbo_sim": ROOT / "sim"}
+CORE = ("ksbo_mav.gp", "ksbo_mav.select", "ksbo_mav.opt")
+FORBIDDEN_FOR_CORE = ("ksbo_sim", "ksbo_mav.mav", "ksbo_mav.campaign", "ksbo_mav.cli", "ksbo_mav.flightlog")
+MAX_LINES = 320  # "about 300": a module past this is two concepts
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for pkg, folder in PACKAGES.items():
+        for p in folder.rglob("*.py"):
+            parts = (pkg, *p.relative_to(folder).with_suffix("").parts)
+            name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+            out[name] = p
+    return out
+
+
+MODULES = _modules()
+
+
+def _imports(name: str, path: Path) -> set[str]:
+    """Modules of ours that ``name`` imports (``from a.b import c`` counts a.b, and a.b.c when that is a module)."""
+    pkg = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                head = pkg.split(".")[: len(pkg.split(".")) - node.level + 1]
+                base = ".".join(head + ([base] if base else []))
+            found.add(base)
+            found.update(f"{base}.{a.name}" for a in node.names)
+    return {m for m in found if m in MODULES and m != name}
+
+
+GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def _reach(start: str) -> dict[str, str]:
+    """Every module reachable from ``start``: {module: the module that imported it on a shortest path}."""
+    seen, frontier = {start: ""}, [start]
+    while frontier:
+        nxt = []
+        for v in frontier:
+            for w in sorted(GRAPH[v]):
+                if w not in seen:
+                    seen[w] = v
+                    nxt.append(w)
+        frontier = nxt
+    return seen
+
+
+def test_the_graph_is_read_and_sees_a_cycle_when_there_is_one() -> None:
+    """The walker itself: it finds our modules and their imports, and it reports a cycle made up for the test."""
+    assert "ksbo_mav.opt.safe_bo" in GRAPH and "ksbo_mav.opt.certificate" in GRAPH["ksbo_mav.opt.safe_bo"]
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_no_import_cycle_anywhere() -> None:
+    assert _cycles(GRAPH) == []
+
+
+@pytest.mark.parametrize("core", CORE)
+def test_the_optimiser_core_imports_no_vehicle_simulator_or_campaign_code(core: str) -> None:
+    bad = []
+    for mod in (m for m in GRAPH if m == core or m.startswith(core + ".")):
+        seen = _reach(mod)
+        for hit in (m for m in seen if m.startswith(FORBIDDEN_FOR_CORE)):
+            path, v = [hit], hit
+            while seen[v]:
+                v = seen[v]
+                path.append(v)
+            bad.append(" <- ".join(path))
+    assert bad == []
+
+
+def test_the_simulator_never_imports_the_tuner() -> None:
+    assert [m for m in GRAPH if m.startswith("ksbo_sim") and any(w.startswith("ksbo_mav") for w in GRAPH[m])] == []
+
+
+def test_only_the_entry_points_import_the_safe_bo_loop() -> None:
+    """The strategies receive what they need as arguments; only the loop's builders and drivers import it."""
+    users = sorted(m for m, deps in GRAPH.items() if "ksbo_mav.opt.safe_bo" in deps)
+    assert users == ["ksbo_mav.opt.build", "ksbo_mav.opt.runner", "ksbo_mav.opt.safe_methods"]
+
+
+def test_no_module_outgrows_about_300_lines() -> None:
+    long = {m: n for m, p in MODULES.items() if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert long == {}
