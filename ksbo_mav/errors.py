@@ -19,6 +19,10 @@ class VehicleError(KsboError):
     """The vehicle did not answer, refused a command, or behaved unexpectedly."""
 
 
+class VerifyError(VehicleError):
+    """A parameter write was not confirmed by the vehicle (no echo, or a different value echoed)."""
+
+
 class LinkLost(VehicleError):
     """No heartbeat / telemetry from the vehicle for longer than the profile's timeout."""
 

@@ -1,7 +1,7 @@
 """Parameter protocol (fact sheet section 2): complete download, read, set-and-verify, INT32 encodings.
 
-* Download: PARAM_REQUEST_LIST, collect PARAM_VALUE by index, re-request missing indices by PARAM_REQUEST_READ
-  after a quiet period (as MAVProxy does); the result is only accepted when every index 0..count-1 arrived.
+* Download: :mod:`ksbo_mav.mav.param_list` (re-requests missing indices while the link makes progress); the
+  result is only accepted when every index 0..count-1 arrived.
 * Set: the PARAM_VALUE echo is the only acknowledgement. A set is verified when an echo with the same name
   carries the requested value (within float32 rounding); a timeout is retried, a wrong value is retried once more
   and then reported as refused. Unknown names get no answer at all from an autopilot, so they are refused
@@ -14,22 +14,18 @@ from __future__ import annotations
 
 import math
 import struct
-import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
-from ksbo_mav.errors import InputError, VehicleError
+from ksbo_mav.errors import InputError, VehicleError, VerifyError
 from ksbo_mav.mav.link import Link
+from ksbo_mav.mav.param_list import download_list
 
 REAL32, REAL64 = 9, 10
 #: MAV_PARAM_TYPE -> struct format of the integer inside the 4-byte param union (little-endian).
 _INT_FORMATS = {1: "<B", 2: "<b", 3: "<H", 4: "<h", 5: "<I", 6: "<i"}
-
-
-class VerifyError(VehicleError):
-    """A parameter write was not confirmed by the vehicle (no echo, or a different value echoed)."""
 
 
 def encode(value: float, ptype: int, encoding: str) -> float:
@@ -80,56 +76,29 @@ class ParamClient:
         self.encoding = encoding
         self.table: dict[str, Param] = {}
         self.count = 0
+        self.last_download: Any = None
 
     def _id(self, name: str) -> bytes:
         return name.encode("ascii")
 
     # --- download -----------------------------------------------------------------------------------------
-    def fetch_all(self, timeout: float = 30.0, quiet: float = 0.5, max_passes: int = 20) -> dict[str, Param]:
-        """Download every parameter; :class:`VehicleError` unless all ``param_count`` indices arrived."""
-        got: dict[int, Param] = {}
-        count = [0]
-        last = [time.monotonic()]
-
-        def on_msg(msg: Any) -> None:
-            if msg.get_type() != "PARAM_VALUE" or not self.link.is_vehicle(msg):
-                return
-            count[0] = max(count[0], int(msg.param_count))
-            if 0 <= msg.param_index < 65535:
-                got[int(msg.param_index)] = Param(msg.param_id, decode(msg.param_value, msg.param_type,
-                                                                       self.encoding), int(msg.param_type),
-                                                  int(msg.param_index))
-            last[0] = time.monotonic()
-
-        link = self.link
-        link.handlers.append(on_msg)
-        try:
-            link.send(link.mav.param_request_list_encode(link.target_system, link.target_component))
-            deadline = time.monotonic() + timeout
-            passes = 0
-            while time.monotonic() < deadline:
-                link.pump(0.05)
-                if count[0] and len(got) >= count[0]:
-                    break
-                if time.monotonic() - last[0] < quiet:
-                    continue
-                if not count[0]:  # nothing yet: the request itself may have been lost
-                    link.send(link.mav.param_request_list_encode(link.target_system, link.target_component))
-                else:
-                    missing = [i for i in range(count[0]) if i not in got][:10]
-                    for i in missing:
-                        link.send(link.mav.param_request_read_encode(link.target_system, link.target_component,
-                                                                     b"", i))
-                passes += 1
-                last[0] = time.monotonic()
-                if passes > max_passes:
-                    break
-        finally:
-            link.handlers.remove(on_msg)
-        if not count[0] or len(got) < count[0]:
-            raise VehicleError(f"parameter download incomplete: {len(got)} of {count[0] or '?'} received")
-        self.count = count[0]
-        self.table = {p.name: p for p in (got[i] for i in range(count[0]))}
+    def fetch_all(self, stall_s: float = 15.0, progress: Callable[[int, int], None] | None = None
+                  ) -> dict[str, Param]:
+        """Download every parameter (:func:`ksbo_mav.mav.param_list.download_list`: it keeps asking for missing
+        indices while the link delivers, and gives up after ``stall_s`` seconds without a new one);
+        :class:`VehicleError` unless all ``param_count`` indices arrived. ``last_download`` says how it went."""
+        res = download_list(self.link, stall_s=stall_s, progress=progress)
+        self.last_download = res
+        if not res.complete:
+            raise VehicleError(f"parameter download incomplete: {len(res.values)} of {res.count or '?'} received "
+                               f"in {res.seconds:.0f} s, nothing new for {stall_s:g} s (is the link dropping "
+                               "most frames? see docs/links.md)")
+        self.count = res.count
+        self.table = {}
+        for i in range(res.count):
+            m = res.values[i]
+            self.table[m.param_id] = Param(m.param_id, decode(m.param_value, m.param_type, self.encoding),
+                                           int(m.param_type), i)
         return self.table
 
     # --- read ------------------------------------------------------------------------------------------------

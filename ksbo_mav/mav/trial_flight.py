@@ -24,7 +24,7 @@ from ksbo_mav.errors import KsboError, LinkLost
 from ksbo_mav.mav.approach import Approach
 from ksbo_mav.mav.monitor import Monitor
 from ksbo_mav.mav.outcome import TrialOutcome as T
-from ksbo_mav.mav.params import VerifyError
+from ksbo_mav.errors import VerifyError
 from ksbo_mav.mav.tlog import TlogWriter
 from ksbo_mav.mav.trajectory import TrialRecorder, after_text, end_text, ref_text, start_text
 from ksbo_mav.mav.vehicle import Vehicle

@@ -67,8 +67,10 @@ class Vehicle:
             cmd.stack = stack
             log(f"vehicle sysid {ident.sysid}: {stack.name} {ident.firmware}, type {ident.vehicle_type}")
             params = ParamClient(link, stack.encoding)
-            table = params.fetch_all()
-            log(f"parameters: {len(table)} of {params.count} downloaded")
+            table = params.fetch_all(progress=lambda got, n: log(f"parameters: {got} of {n or '?'} so far"))
+            dl = params.last_download
+            log(f"parameters: {len(table)} of {params.count} downloaded in {dl.seconds:.1f} s (PARAM protocol"
+                + (f", {dl.requests} re-requested)" if dl.requests else ")"))
             prof = load_profile(profile or default_profile(ident, stack))
             want = str(prof.vehicle.get("autopilot", ""))
             if want and want != stack.name:

@@ -1,0 +1,123 @@
+"""A radio-like link: the link shape (bandwidth, buffer, latency, whole-frame loss in bursts), the link emulator
+process between our simulator (or ArduCopter SITL) and the tuner, and a parameter download that finishes
+through it because it keeps asking while the link makes progress."""
+
+from __future__ import annotations
+
+import os
+
+os.environ["MAVLINK20"] = "1"
+
+import time  # noqa: E402
+
+import pytest  # noqa: E402
+from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+
+from ksbo_mav.errors import VehicleError  # noqa: E402
+from ksbo_mav.mav.link import Endpoint, Link  # noqa: E402
+from ksbo_mav.mav.params import ParamClient  # noqa: E402
+from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
+from ksbo_sim.errors import SimInputError  # noqa: E402
+from ksbo_sim.linkemu import split_frames  # noqa: E402
+from ksbo_sim.linkproc import LinkEmulator  # noqa: E402
+from ksbo_sim.linkshape import LinkShape, pipes  # noqa: E402
+from ksbo_sim.process import SimProcess, free_udp_port  # noqa: E402
+
+pytestmark = pytest.mark.timeout(120)
+RADIO = "down=4000,up=2000,queue=1024,loss=0.05,latency=0.02,seed=1"
+
+
+def test_a_shape_is_parsed_checked_and_described() -> None:
+    s = LinkShape.parse("down=4000, up=2000,queue=1024,loss=0.05,burst=3,duplex=half")
+    assert (s.down, s.up, s.queue, s.loss, s.burst, s.duplex) == (4000, 2000, 1024, 0.05, 3, "half")
+    assert "down 4 kB/s, up 2 kB/s, half duplex" in s.describe()
+    for bad in ("down=fast", "speed=3", "loss=1.5", "queue=10", "duplex=quarter", "down"):
+        with pytest.raises(SimInputError, match="link spec"):
+            LinkShape.parse(bad)
+
+
+def test_a_pipe_paces_frames_at_its_rate_drops_what_overflows_its_buffer_and_loses_at_its_rate() -> None:
+    down, _ = pipes(LinkShape(down=1000, queue=200, latency=0.1))
+    for _ in range(10):
+        down.push(b"x" * 50, now=0.0)  # 500 bytes offered at once into a 200-byte buffer
+    assert down.dropped == 6  # 4 fit
+    assert down.due(0.149) == [] and len(down.due(0.151)) == 1  # 50 B at 1 kB/s = 0.05 s, then 0.1 s latency
+    assert len(down.due(0.301)) == 3 and down.sent_bytes == 200
+    lossy, _ = pipes(LinkShape(loss=0.2, seed=3))
+    for k in range(5000):
+        lossy.push(b"y", now=0.0)
+    assert 0.17 < lossy.lost / 5000 < 0.23
+    bursty, _ = pipes(LinkShape(loss=0.05, burst=4, seed=3))
+    for k in range(5000):
+        bursty.push(b"y", now=0.0)
+    assert bursty.lost / 5000 > 1.5 * 0.05  # bursts: each loss drags about 3 more with it
+
+
+def test_frames_are_cut_from_a_stream_with_garbage_between_them() -> None:
+    mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    a = mav.heartbeat_encode(2, 3, 0, 0, 0).pack(mav)
+    b = mav.param_value_encode(b"POS_X_P", 0.15, 9, 28, 3).pack(mav)
+    buf = bytearray(b"\x00junk" + a + b + b[:5])
+    assert split_frames(buf) == [a, b] and bytes(buf) == b[:5]  # the incomplete frame waits for the rest
+
+
+def _through(shape: str):
+    """(simulator, emulator, the tuner's endpoint): the simulator sends to the emulator, which shapes the link."""
+    gport, vport = free_udp_port(), free_udp_port()
+    emu = LinkEmulator(f"udpin:127.0.0.1:{vport}", f"udp:127.0.0.1:{gport}", shape)
+    sim = SimProcess("--lockstep", out_port=vport)
+    return sim, emu, Endpoint("udp", "127.0.0.1", gport)
+
+
+@pytest.mark.network
+@pytest.mark.parametrize("shape", [RADIO, "down=1000,up=1000,queue=512,loss=0.25,burst=3,seed=2"])
+def test_every_parameter_arrives_through_a_thin_lossy_link(shape: str) -> None:
+    sim, emu, ep = _through(shape)
+    said: list[str] = []
+    try:
+        v = Vehicle.connect(ep, "sim-planar", log=said.append)
+        try:
+            assert len(v.params.table) == v.params.count > 0
+            assert v.params.table["POS_X_P"].value == pytest.approx(0.15, rel=1e-6)
+        finally:
+            v.close()
+    finally:
+        sim.stop()
+        stats = emu.stop()
+    assert stats["down"]["lost"] + stats["down"]["dropped"] > 0  # the link really lost frames on the way
+    assert any(line.startswith("parameters: ") and "downloaded in" in line for line in said)
+
+
+@pytest.mark.network
+def test_a_link_that_stops_delivering_gives_up_after_the_stall_budget_with_one_line() -> None:
+    """No new index for ``stall_s``: the download ends (not hangs) and says how far it got."""
+    sim, emu, ep = _through("down=300,up=2000,queue=64,loss=0.6,seed=4")
+    link = Link(ep)
+    try:
+        link.wait_heartbeat(20.0)
+        client = ParamClient(link, "c_cast")
+        t0 = time.monotonic()
+        with pytest.raises(VehicleError, match=r"parameter download incomplete: \d+ of") as err:
+            client.fetch_all(stall_s=1.0)
+        assert time.monotonic() - t0 < 30.0 and "\n" not in str(err.value)
+    finally:
+        link.close()
+        sim.stop()
+        emu.stop()
+
+
+@pytest.mark.sitl
+@pytest.mark.slow
+def test_arducopter_parameters_arrive_through_a_radio_like_link(ardupilot_sitl) -> None:
+    """About 1350 parameters through 4 kB/s down, 2 kB/s up, a 1 KB buffer and 5 % loss (the PARAM protocol)."""
+    gport = free_udp_port()
+    emu = LinkEmulator(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_port}", f"udp:127.0.0.1:{gport}", RADIO)
+    try:
+        v = Vehicle.connect(Endpoint("udp", "127.0.0.1", gport), None)
+        try:
+            assert len(v.params.table) == v.params.count > 1000
+        finally:
+            v.close()
+    finally:
+        stats = emu.stop()
+    assert stats["down"]["lost"] > 0
