@@ -121,3 +121,66 @@ def test_arducopter_parameters_arrive_through_a_radio_like_link(ardupilot_sitl) 
     finally:
         stats = emu.stop()
     assert stats["down"]["lost"] > 0
+
+
+def _realtime_through(shape: str):
+    """The simulator in real time (its clock runs on the ground, as a vehicle's does) behind the emulator."""
+    gport, vport = free_udp_port(), free_udp_port()
+    emu = LinkEmulator(f"udpin:127.0.0.1:{vport}", f"udp:127.0.0.1:{gport}", shape)
+    sim = SimProcess(out_port=vport)
+    return sim, emu, Endpoint("udp", "127.0.0.1", gport)
+
+
+@pytest.mark.network
+def test_a_link_too_thin_for_the_mission_is_refused_before_arming_in_one_line(tmp_path) -> None:
+    """2 kB/s down (half of what 50 Hz needs): the campaign stops before reading the baseline or arming, names the
+    measured and the needed rates, creates no campaign directory and leaves every parameter as it was."""
+    from mav_tune_helpers import baseline, fresh_read
+
+    from ksbo_mav.cli import main
+
+    sim, emu, ep = _realtime_through("down=2000,up=2000,queue=1024,seed=5")
+    try:
+        d = tmp_path / "camp"
+        import contextlib
+        import io
+
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err):
+            rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--profile", "sim-planar", "--budget", "2"])
+        lines = [ln for ln in err.getvalue().splitlines() if ln.startswith("error: ")]
+        assert rc == 2 and len(lines) == 1, err.getvalue()
+        assert "link check: the link delivers LOCAL_POSITION_NED" in lines[0] and "needs LOCAL_POSITION_NED at 50 Hz" \
+            in lines[0] and "nothing was written to the vehicle" in lines[0]
+        assert not d.exists()
+        assert fresh_read(sim) == baseline()  # the simulator's gains as it started
+    finally:
+        sim.stop()
+        emu.stop()
+
+
+@pytest.mark.network
+def test_a_link_that_carries_the_mission_passes_and_its_figures_are_kept(tmp_path) -> None:
+    from ksbo_mav.campaign.layout import CampaignDir
+    from ksbo_mav.campaign.link_check import check_link, record_link
+
+    sim, emu, ep = _realtime_through("down=20000,up=20000,queue=4096,latency=0.01")
+    try:
+        v = Vehicle.connect(ep, "sim-planar")
+        try:
+            said: list[str] = []
+            fig = check_link(v, said.append, seconds=2.0)
+        finally:
+            v.close()
+    finally:
+        sim.stop()
+        emu.stop()
+    assert fig.rates_hz["LOCAL_POSITION_NED"] >= 40 and fig.bytes_per_s > 2000 and said[0].startswith("link: ")
+    d = CampaignDir.at(tmp_path / "c")
+    d.root.mkdir()
+    record_link(d, fig)
+    record_link(d, fig)
+    import json
+
+    doc = json.loads((d.root / "link.json").read_text())
+    assert len(doc) == 2 and doc[0]["rates_hz"]["LOCAL_POSITION_NED"] >= 40

@@ -55,6 +55,12 @@ def box_edge_lines(d: CampaignDir | str | Path, result: dict[str, Any] | None = 
     """The box-edge notes of a finished campaign, one line each (none when the recommendation is inside)."""
     d = d if isinstance(d, CampaignDir) else CampaignDir.at(d)
     result = result if result is not None else load_result(d)
+    link = d.root / "link.json"
+    if result is not None and link.is_file():  # the link check's figures, for the verdict
+        try:
+            result = {**result, "link": json.loads(link.read_text())[-1]}
+        except (OSError, ValueError, IndexError):
+            pass
     if not result:
         return []
     rec = read_campaign(d, rms=False)
@@ -97,6 +103,12 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     d.report.mkdir(parents=True, exist_ok=True)
     rec = read_campaign(d)
     result = result if result is not None else load_result(d)
+    link = d.root / "link.json"
+    if result is not None and link.is_file():  # the link check's figures, for the verdict
+        try:
+            result = {**result, "link": json.loads(link.read_text())[-1]}
+        except (OSError, ValueError, IndexError):
+            pass
     profile = profile if profile is not None else campaign_profile(rec.settings)
     best_x = ((result or {}).get("best") or {}).get("x")  # none when the campaign recommended nothing
     hits = box_edges(rec, best_x, profile) if best_x is not None else []

@@ -126,6 +126,10 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
         by_role[role] = by_role.get(role, 0) + 1
     rows.append(("Flights", esc(f"{len(rec.rows)} ("
                                 + ", ".join(f"{n} {role}" for role, n in by_role.items()) + ")")))
+    if result and result.get("link"):
+        from ksbo_mav.mav.linkcheck import LinkFigures
+
+        rows.append(("Link", esc(LinkFigures(**{k: v for k, v in result["link"].items() if k != "at"}).describe())))
     if result and result.get("batteries") is not None:
         rows.append(("Batteries", esc(result["batteries"])))
     c = counts(rec)

@@ -25,6 +25,7 @@ from ksbo_mav.campaign.confirm import confirm_failures, fly_confirmations
 from ksbo_mav.campaign.ending import end_flight, leave_gains, safe_stop
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.link_check import check_link, record_link
 from ksbo_mav.campaign.plan import campaign_plan
 from ksbo_mav.campaign.prior import campaign_prior
 from ksbo_mav.campaign.result import summarize, write_result
@@ -81,15 +82,16 @@ class Campaign:
         v = self._connect()
         base: dict[str, float] | None = None
         try:
+            link = check_link(v, log)  # before anything is read for, or written to, the campaign
             base = baseline_params(v, self.dir, self.resume, log)
             check_moving_start(v.mission, limits_from_profile(v.profile, cfg.safety))
             optimizer_options("none", cfg.options, cfg.method, v.profile)  # gain names: before flying
             if not self.resume:
                 create_campaign(self.dir, cfg, v, base, log)
+            record_link(self.dir, link)
             x0 = v.gain_map.from_params(base)
             bounds = opt_bounds(v.profile, x0)
             journal = Journal(self.dir.journal)
-            v.setup_streams()
             objective = MavlinkObjective(v, base, self.dir.trials, safety=cfg.safety, settle_s=cfg.settle_s,
                                          first_index=self.dir.next_trial_index(), start_seed=cfg.seed, log=log)
             trials = TrialLoop(objective, journal, self.progress, log)

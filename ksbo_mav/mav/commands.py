@@ -116,7 +116,9 @@ class Commander:
     def request_message(self, msg_id: int, name: str, timeout: float = 1.0, attempts: int = 6) -> Any:
         """REQUEST_MESSAGE (512), every third attempt REQUEST_AUTOPILOT_CAPABILITIES instead for AUTOPILOT_VERSION
         (older firmware). Six attempts: over a link losing 20 % each way a request and its answer both get through
-        64 % of the time, so three attempts left about 1 connect in 20 without an answer."""
+        64 % of the time, so three attempts left about 1 connect in 20 without an answer. The wait grows with each
+        pair of attempts (1, 1, 2, 2, 3, 3 × ``timeout``): on a radio whose buffer is full of telemetry an answer
+        queues for about a second before it is sent."""
         link = self.link
         for attempt in range(attempts):
             if attempt % 3 < 2 or msg_id != mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
@@ -125,7 +127,7 @@ class Commander:
             else:
                 link.send(link.mav.command_long_encode(link.target_system, link.target_component,
                                                        CMD_REQUEST_CAPS, 0, 1, 0, 0, 0, 0, 0, 0))
-            msg = link.wait(lambda m: m.get_type() == name, timeout)
+            msg = link.wait(lambda m: m.get_type() == name, timeout * (1 + attempt // 2))
             if msg is not None:
                 return msg
         return None

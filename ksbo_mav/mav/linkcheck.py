@@ -1,0 +1,114 @@
+"""A check of what the link actually delivers, before arming: message rates, bytes per second, loss from MAVLink
+sequence numbers, round-trip time from TIMESYNC, and RADIO_STATUS where a radio reports it.
+
+A trial needs ``LOCAL_POSITION_NED`` at the mission rate (the monitor and the score read it; below 80 % the
+tuner would fall behind the vehicle and abort the trial). :func:`verdict` turns the figures into go, or a refusal
+in one line that says what the link delivers, what the mission needs and what would help.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from ksbo_mav.mav.link import Link
+
+#: Below this share of the mission rate the trial cannot be flown (the tuner falls behind the vehicle).
+MIN_RATE_SHARE = 0.8
+#: Streams a vehicle sends on its own clock; with none of them the vehicle's clock is paused (a lockstep simulator
+#: waits for the tuner's steps) and the rates cannot be judged on the ground.
+CLOCKED = ("ATTITUDE", "LOCAL_POSITION_NED", "SYSTEM_TIME", "SYS_STATUS", "GLOBAL_POSITION_INT")
+
+
+@dataclass
+class LinkFigures:
+    """What arrived from the vehicle during ``seconds`` of wall time."""
+
+    seconds: float
+    bytes_per_s: float
+    rates_hz: dict[str, float] = field(default_factory=dict)  # messages per second by type
+    loss: float = 0.0  # share of the vehicle's frames missing by sequence number
+    rtt_ms: float | None = None  # TIMESYNC round trip (None: not answered)
+    radio: dict[str, int] | None = None  # last RADIO_STATUS: rssi, remrssi, noise, remnoise, txbuf, rxerrors
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: (round(v, 3) if isinstance(v, float) else v) for k, v in asdict(self).items()}
+
+    def describe(self) -> str:
+        lpn = self.rates_hz.get("LOCAL_POSITION_NED", 0.0)
+        rtt = "n/a" if self.rtt_ms is None else f"{self.rtt_ms:.0f} ms"
+        paused = not any(self.rates_hz.get(k, 0.0) > 0 for k in CLOCKED)
+        return (f"LOCAL_POSITION_NED {lpn:.1f} Hz, downlink {self.bytes_per_s / 1000:.2f} kB/s, "
+                f"loss {self.loss:.0%}, round trip {rtt}" + (f", radio txbuf {self.radio['txbuf']} %"
+                                                              if self.radio else "")
+                + ("; the vehicle's clock was paused (lockstep simulator): rates not judged" if paused else ""))
+
+
+def measure(link: Link, seconds: float = 3.0) -> LinkFigures:
+    """Listen for ``seconds`` (the streams already requested) and send one TIMESYNC a second."""
+    counts: Counter[str] = Counter()
+    size = [0]
+    last_seq: dict[tuple[int, int], int] = {}
+    gaps, frames = [0], [0]
+    sent_ts: dict[int, float] = {}
+    rtts: list[float] = []
+    radio: list[Any] = []
+
+    def on_msg(msg: Any) -> None:
+        if not link.is_vehicle(msg):
+            return
+        kind = msg.get_type()
+        counts[kind] += 1
+        size[0] += len(msg.get_msgbuf())
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        seq = msg.get_seq()
+        if src in last_seq:
+            gaps[0] += (seq - last_seq[src] - 1) % 256
+        last_seq[src] = seq
+        frames[0] += 1
+        if kind == "TIMESYNC" and msg.tc1 != 0 and int(msg.ts1) in sent_ts:
+            rtts.append((time.monotonic() - sent_ts.pop(int(msg.ts1))) * 1000.0)
+        elif kind == "RADIO_STATUS":
+            radio.append(msg)
+
+    link.handlers.append(on_msg)
+    t0 = time.monotonic()
+    next_sync = t0
+    try:
+        while (now := time.monotonic()) - t0 < seconds:
+            if now >= next_sync:
+                ts = time.monotonic_ns()
+                sent_ts[ts] = now
+                link.send(link.mav.timesync_encode(0, ts))
+                next_sync = now + 1.0
+            link.pump(0.02)
+    finally:
+        link.handlers.remove(on_msg)
+    dt = max(time.monotonic() - t0, 1e-3)
+    r = radio[-1] if radio else None
+    return LinkFigures(
+        seconds=dt, bytes_per_s=size[0] / dt, rates_hz={k: n / dt for k, n in sorted(counts.items())},
+        loss=gaps[0] / max(gaps[0] + frames[0], 1), rtt_ms=sorted(rtts)[len(rtts) // 2] if rtts else None,
+        radio=None if r is None else {k: int(getattr(r, k)) for k in ("rssi", "remrssi", "noise", "remnoise",
+                                                                      "txbuf", "rxerrors")})
+
+
+def judged(fig: LinkFigures) -> bool:
+    """Whether the vehicle streamed anything on its own clock during the measurement."""
+    return any(fig.rates_hz.get(k, 0.0) > 0 for k in CLOCKED)
+
+
+def verdict(fig: LinkFigures, mission_rate_hz: float) -> str | None:
+    """None when the link carries what a trial needs (or nothing can be judged: :func:`judged`), else the one-line
+    reason to refuse."""
+    lpn = fig.rates_hz.get("LOCAL_POSITION_NED", 0.0)
+    if lpn >= MIN_RATE_SHARE * mission_rate_hz or not judged(fig):
+        return None
+    per_sample = fig.bytes_per_s / lpn if lpn > 0 else 80.0  # bytes of downlink per position sample
+    need = per_sample * mission_rate_hz
+    return (f"link check: the link delivers {fig.describe()}; a trial needs LOCAL_POSITION_NED at "
+            f"{mission_rate_hz:g} Hz (about {need / 1000:.1f} kB/s down): use a faster link (a wired companion "
+            "computer, a faster radio air rate), close other ground stations on it, or fly a profile with a lower "
+            "mission rate (docs/links.md); nothing was written to the vehicle")
