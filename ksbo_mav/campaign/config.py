@@ -30,6 +30,7 @@ class CampaignConfig:
     prior: str = "auto"  # "sim", "local", "none", "auto" (sim for the built-in planar vehicle, else local)
     n_prior: int = 0  # 0 = default for the prior kind
     confirm: int = 1
+    widen: bool = False  # extend a search-box bound the recommendation ends on (ksbo_mav.campaign.widen)
     accept: bool = False
     end: str = "land"  # "land" or "hold"
     settle_s: float = 1.0
@@ -52,6 +53,8 @@ class CampaignConfig:
                 raise InputError(f"{name} must be an integer >= {lo}, got {v!r}")
         if self.prior not in PRIOR_KINDS:
             raise InputError(f"unknown prior {self.prior!r}; choose {', '.join(PRIOR_KINDS)}")
+        if not isinstance(self.widen, bool):
+            raise InputError(f"widen must be true or false, got {self.widen!r}")
         if self.end not in END_MODES:
             raise InputError(f"--end must be land or hold, got {self.end!r}")
         for name in ("sysid", "compid"):

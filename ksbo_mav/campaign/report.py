@@ -18,6 +18,7 @@ from ksbo_mav.campaign.box_edge import EdgeHit, edge_hits
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.report_plots import plot_convergence, plot_gains, plot_safety
 from ksbo_mav.campaign.trial_rows import CampaignRecord, read_campaign, trajectory
+from ksbo_mav.campaign.widen import widened_record
 
 #: How many of the best flown trials back up (or not) a box-edge note.
 NEAR_BEST = 5
@@ -42,9 +43,11 @@ def campaign_profile(settings: dict[str, Any]) -> Any | None:
         return None
 
 
-def box_edges(rec: CampaignRecord, best_x: Any, profile: Any | None) -> list[EdgeHit]:
-    """Where the recommendation ``best_x`` (optimiser units) touches the search box, in the vehicle's units."""
-    limits = profile.bounds / rec.scale[:, None] if profile is not None and profile.dim == len(rec.names) else None
+def box_edges(rec: CampaignRecord, best_x: Any, profile: Any | None, limits: Any = None) -> list[EdgeHit]:
+    """Where the recommendation ``best_x`` (optimiser units) touches the search box, in the vehicle's units
+    (``limits``: how far the box could go; default the profile's box)."""
+    if limits is None and profile is not None and profile.dim == len(rec.names):
+        limits = profile.bounds / rec.scale[:, None]
     good = sorted((r for r in rec.rows if r.kind in ("opt", "prior") and r.entry.outcome == "ok" and r.P >= 0),
                   key=lambda r: -r.P)[:NEAR_BEST]
     near = np.array([[r.values[n] for n in rec.names] for r in good]).reshape(-1, len(rec.names))
@@ -64,7 +67,9 @@ def box_edge_lines(d: CampaignDir | str | Path, result: dict[str, Any] | None = 
     if not result:
         return []
     rec = read_campaign(d, rms=False)
-    return [h.message() for h in box_edges(rec, result["best"]["x"], campaign_profile(rec.settings))]
+    profile = campaign_profile(rec.settings)
+    rec, limits, moves = widened_record(d, rec, profile)
+    return [m.message() for m in moves] + [h.message() for h in box_edges(rec, result["best"]["x"], profile, limits)]
 
 
 def _trajectory_plot(rec: CampaignRecord, path: Path) -> str | None:
@@ -111,8 +116,8 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
             pass
     profile = profile if profile is not None else campaign_profile(rec.settings)
     best_x = ((result or {}).get("best") or {}).get("x")  # none when the campaign recommended nothing
-    hits = box_edges(rec, best_x, profile) if best_x is not None else []
-    limits = profile.bounds / rec.scale[:, None] if profile is not None and profile.dim == len(rec.names) else None
+    rec, limits, moves = widened_record(d, rec, profile)
+    hits = box_edges(rec, best_x, profile, limits) if best_x is not None else []
     paths: dict[str, str] = {
         "convergence": plot_convergence(rec, d.report / "convergence.png"),
         "gains": plot_gains(rec, None if best_x is None else rec.to_params(best_x), limits, hits,
@@ -122,5 +127,5 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     if traj:
         paths["trajectory"] = traj
     paths["safety"] = plot_safety(rec, d.report / "safety.png") or "none"
-    paths["page"] = str(write_page(d.report / "index.html", rec, result, hits, paths))
+    paths["page"] = str(write_page(d.report / "index.html", rec, result, [*moves, *hits], paths))
     return paths

@@ -34,6 +34,7 @@ from ksbo_mav.campaign.search import search
 from ksbo_mav.campaign.setup import baseline_params, connect, create_campaign
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
 from ksbo_mav.campaign.trials import TrialLoop
+from ksbo_mav.campaign.widen import widen_search
 from ksbo_mav.errors import InputError, KsboError
 from ksbo_mav.mav.approach import check_moving_start
 from ksbo_mav.mav.gains import opt_bounds
@@ -101,6 +102,8 @@ class Campaign:
                 prior = campaign_prior(prior_kind(cfg, v.profile), cfg, self.dir, v.profile, x0, bounds,
                                        [e.P for e in journal.of("prior")], lambda x: trials.fly(x, "prior").P, log)
                 result, unused = search(trials, cfg, x0, bounds, prior, self.resume, log)
+                if cfg.widen or v.profile.trust_region.widen:
+                    result, unused, bounds = widen_search(trials, cfg, v, self.dir, bounds, prior, result, unused, log)
             best = np.asarray(result.x, dtype=float)
             confirms = fly_confirmations(trials, best, cfg.confirm)
             wall_s = time.time() - started

@@ -9,7 +9,7 @@ from ksbo_mav.cli.common import add_connection_args, endpoint_from_args, positiv
 from ksbo_mav.errors import InputError
 
 #: Options that define a campaign; on --resume, one given with a different value than stored is refused.
-_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm")
+_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen")
 
 
 def add_parser(subparsers) -> None:
@@ -49,6 +49,9 @@ def add_parser(subparsers) -> None:
                         "Every option with its default and allowed values: docs/options.md (an unknown KEY prints "
                         "the list)")
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
+    p.add_argument("--widen", action="store_const", const=True, help="when the recommendation ends on a bound of "
+                   "the search box, move that bound out stepwise (never past the gain's documented range) and search "
+                   "on from the recommendation; as the profile's [trust_region] widen = true (docs/profiles.md)")
     p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end (not if a "
                    "confirmation flight of them aborted, crashed or scored P < 0: then the baseline is restored and "
                    "`ksbo-mav accept DIR --force` writes them anyway)")
