@@ -78,7 +78,6 @@ def search_box(trials: TrialLoop, cfg: Any, start: np.ndarray, bounds: np.ndarra
         fun = _Embedded(replay, start, dims)
         prior = _along(prior, start, bounds, dims)
         start, bounds = start[dims], bounds[dims]
-        options.pop("chatter_dim", None)  # a gain index of the full vector
     try:
         result = optimize(fun, start, bounds, prior=prior, budget=budget, method=cfg.method, seed=cfg.seed,
                           p_min=0.0, check_x0=True, **options)
