@@ -74,6 +74,21 @@ def test_text_output_and_plot(tmp_path, capsys):
     assert (tmp_path / "p.png").stat().st_size > 10_000
 
 
+@pytest.mark.parametrize("where", ["file-as-directory", "directory", "proc"])
+def test_a_plot_path_that_cannot_be_written_is_one_line_before_any_work(tmp_path, capsys, where):
+    """--plot into a path whose parent is a file, onto a directory, or where no directory can be made: exit 2 with
+    one line naming the option and the path (it used to be a FileNotFoundError traceback after scoring)."""
+    path = write_bin(tmp_path / "a.bin")
+    (tmp_path / "afile").write_text("not a directory")
+    plot = {"file-as-directory": tmp_path / "afile" / "p.png", "directory": tmp_path,
+            "proc": "/proc/no-such-dir/p.png"}[where]
+    for cmd in (["score", str(path)], ["compare", str(path), str(path)]):
+        rc = main([*cmd, "--plot", str(plot)])
+        err = capsys.readouterr().err.strip()
+        assert rc == 2 and err.startswith(f"error: --plot {plot}:") and "\n" not in err, err
+    assert not (tmp_path / "afile").is_dir()
+
+
 def test_other_clients_tlog_is_scored(tmp_path, capsys):
     path = write_other_tlog(tmp_path / "mp.tlog")
     rc, out, err = score_json(capsys, path)

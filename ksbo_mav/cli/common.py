@@ -13,6 +13,26 @@ from ksbo_mav.jsonio import dumps
 from ksbo_mav.profiles import Profile
 
 
+def writable_output(path: str | None, option: str = "--plot") -> None:
+    """InputError (one line) unless a file can be written at ``path`` (its directory is created if missing): checked
+    before any work, so a bad path never costs a scoring run or ends in a traceback."""
+    if path is None:
+        return
+    from pathlib import Path
+
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{option} {path}: is a directory; give a file name such as {p / 'plot.png'}")
+    import os
+
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"{option} {path}: cannot create its directory ({exc.strerror or exc})") from None
+    if not os.access(p.parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        raise InputError(f"{option} {path}: not writable")
+
+
 def parse_gains(text: str, profile: Profile) -> np.ndarray:
     """A preset name (``default``, ``scg``) or ``d`` comma-separated numbers in the profile's order."""
     text = text.strip()

@@ -52,9 +52,11 @@ def _rows(sa: dict[str, Any], sb: dict[str, Any]) -> list[tuple[str, Any, Any]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ksbo_mav.cli.common import writable_output
     from ksbo_mav.errors import InputError
     from ksbo_mav.flightlog import score_file
 
+    writable_output(args.plot)
     ra, log_a, mission = score_file(args.a, args.profile, args.partial, args.segment_a)
     rb, log_b, _ = score_file(args.b, args.profile, args.partial, args.segment_b)
     both_f8 = any(s["figure8"] for s in ra["segments"]) and any(s["figure8"] for s in rb["segments"])

@@ -53,6 +53,9 @@ def is_trial_tlog(path: str | Path) -> bool:
 def run(args: argparse.Namespace) -> int:
     from ksbo_mav.flightlog import detect_format, score_file
 
+    from ksbo_mav.cli.common import writable_output
+
+    writable_output(args.plot)
     fmt = detect_format(args.log)
     if fmt == "tlog" and is_trial_tlog(args.log):
         return _run_trial(args)

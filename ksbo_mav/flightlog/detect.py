@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import struct
+import mmap
 from pathlib import Path
 
 from ksbo_mav.errors import InputError
@@ -10,7 +10,6 @@ from ksbo_mav.errors import InputError
 ULOG_MAGIC = b"ULog\x01\x12\x35"
 DF_HEAD = b"\xa3\x95"
 DF_FMT = 0x80
-_USEC_MIN, _USEC_MAX = 946_684_800 * 10**6, 4_102_444_800 * 10**6  # 2000..2100, as ksbo_mav.mav.tlog
 FORMATS = {"tlog": "MAVLink telemetry log (.tlog)", "bin": "ArduPilot DataFlash log (.BIN)", "ulg": "PX4 ULog (.ulg)"}
 
 
@@ -50,10 +49,19 @@ def detect_format(path: str | Path) -> str:
             raise InputError(f"DataFlash log {p} is corrupted: it must start with a FMT message")
         return "bin"
     if len(head) >= 10:
-        (stamp,) = struct.unpack_from(">Q", head, 0)
-        if _USEC_MIN <= (stamp & ~3) <= _USEC_MAX and head[8] in (0xFE, 0xFD):
+        if _holds_tlog_records(p):
             return "tlog"
     elif len(head) < 10:
         raise InputError(f"log {p} is truncated or not a flight log: only {len(head)} byte(s)")
     raise InputError(f"{p} is corrupted or not a flight log: its first bytes are neither a MAVLink .tlog record, "
                      f"an ArduPilot DataFlash .BIN header nor a PX4 ULog header")
+
+
+def _holds_tlog_records(p: Path) -> bool:
+    """Whether a MAVLink tlog record (8-byte timestamp, a frame whose checksum holds) starts in the first megabyte
+    of ``p``: at offset 0, or later when the recording began mid-stream or the head is damaged."""
+    from ksbo_mav.flightlog.tlog_frames import resync
+    from ksbo_mav.mav.wire import mavlink
+
+    with open(p, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+        return resync(mm, 0, len(mm), mavlink.MAVLink(None)) is not None

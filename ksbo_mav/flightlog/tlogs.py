@@ -12,10 +12,14 @@ import numpy as np
 from ksbo_mav.errors import InputError
 from ksbo_mav.flightlog.detect import open_log
 from ksbo_mav.flightlog.model import FlightLog, Marker, ModeChange, Track
+from ksbo_mav.flightlog.tlog_frames import frame_len, resync, valid_record
 from ksbo_mav.flightlog.modes import COPTER_MODES, COPTER_TRACKING, PX4_AUTO_SUB, PX4_MAIN
 
 # --- MAVLink tlog -----------------------------------------------------------------------------------------------
-_USEC_MIN, _USEC_MAX = 946_684_800 * 10**6, 4_102_444_800 * 10**6
+#: A tlog record is an 8-byte big-endian timestamp (µs, the low 2 bits flag sent/received on our own logs) and one
+#: MAVLink frame. The timestamp is not trusted to be a date (ground stations with a clock near 1970 exist); a
+#: record is recognised by its frame, and where the bytes stop making records (recording began mid-stream, damage)
+#: the reader resynchronises on the next frame whose checksum holds, and says how many bytes it skipped.
 _IDS = {0: "HEARTBEAT", 32: "LOCAL_POSITION_NED", 84: "SET_POSITION_TARGET_LOCAL_NED",
         85: "POSITION_TARGET_LOCAL_NED", 253: "STATUSTEXT"}
 _TIMED = {30, 32, 85, 2, 33}  # messages whose time_boot_ms advances the vehicle clock
@@ -45,25 +49,33 @@ def _tlog_walk(mm, size, parser, p):
     last_mode = None
     count = 0
     cut = None
+    skipped: list[tuple[int, int]] = []  # (offset, bytes) of damaged or foreign spans passed over
     want = set(_IDS) | _TIMED
     while pos < n:
         if n - pos < 8 + 8:
             cut = pos
             break
         (stamp,) = struct.unpack_from(">Q", mm, pos)
-        if not _USEC_MIN <= stamp <= _USEC_MAX:
-            raise InputError(f"tlog {p} is corrupted at offset {pos}: implausible timestamp")
         start = pos + 8
+        length = frame_len(mm, start, n)
+        if length is None or (count == 0 and not valid_record(mm, pos, n, parser)):
+            nxt = resync(mm, pos + (0 if count == 0 else 1), n, parser)
+            if nxt is None or nxt == pos and length is None:
+                if count == 0:
+                    raise InputError(f"{p} holds no MAVLink tlog record: no frame with a valid checksum after an "
+                                     "8-byte timestamp in its first megabyte")
+                skipped.append((pos, n - pos))
+                break
+            if nxt != pos:
+                skipped.append((pos, nxt - pos))
+                pos = nxt
+                continue
         magic = mm[start]
         if magic == 0xFD:
-            length = 10 + mm[start + 1] + 2 + (13 if mm[start + 2] & 0x01 else 0)
             msgid = mm[start + 7] | (mm[start + 8] << 8) | (mm[start + 9] << 16)
             src = (mm[start + 5], mm[start + 6])
-        elif magic == 0xFE:
-            length = 6 + mm[start + 1] + 2
-            msgid, src = mm[start + 5], (mm[start + 3], mm[start + 4])
         else:
-            raise InputError(f"tlog {p} is corrupted at offset {start}: 0x{magic:02x} is not a MAVLink start byte")
+            msgid, src = mm[start + 5], (mm[start + 3], mm[start + 4])
         if start + length > n:
             cut = pos
             break
@@ -73,8 +85,13 @@ def _tlog_walk(mm, size, parser, p):
             continue
         try:
             msg = parser.decode(bytearray(mm[start:start + length]))
-        except Exception as exc:
-            raise InputError(f"tlog {p} is corrupted at offset {start}: {exc}") from None
+        except Exception:  # damaged inside a record: skip to the next valid one
+            nxt = resync(mm, pos - length - 7, n, parser)
+            skipped.append((pos - length - 8, (nxt if nxt is not None else n) - (pos - length - 8)))
+            if nxt is None:
+                break
+            pos = nxt
+            continue
         sent = (stamp & 3) == 3
         if msgid == 0:
             if vehicle is None and msg.autopilot != 8 and msg.type != 6 and not sent:
@@ -105,7 +122,7 @@ def _tlog_walk(mm, size, parser, p):
             pos_rows.append((t, msg.x, msg.y, msg.z, msg.vx, msg.vy, msg.vz))
         elif msgid == 85 and msg.coordinate_frame == 1 and not msg.type_mask & 0x7:
             tgt_rows.append((t, msg.x, msg.y, msg.z, msg.vx, msg.vy, msg.vz))
-    return autopilot, pos_rows, tgt_rows, cmd_rows, modes, markers, count, cut
+    return autopilot, pos_rows, tgt_rows, cmd_rows, modes, markers, count, cut, skipped
 
 
 def _hb_mode(autopilot: str, custom: int) -> tuple[str, bool]:
@@ -126,7 +143,8 @@ def _track(rows, label) -> Track | None:
     return Track(a[:, 0], a[:, 1:4], a[:, 4:7], label)
 
 
-def _tlog_to_log(p, size, autopilot, pos_rows, tgt_rows, cmd_rows, modes, markers, count, cut) -> FlightLog:
+def _tlog_to_log(p, size, autopilot, pos_rows, tgt_rows, cmd_rows, modes, markers, count, cut, skipped
+                 ) -> FlightLog:
     actual = _track(pos_rows, "LOCAL_POSITION_NED")
     if actual is None:
         if cut is not None:
@@ -144,4 +162,9 @@ def _tlog_to_log(p, size, autopilot, pos_rows, tgt_rows, cmd_rows, modes, marker
     if cut is not None:
         log.truncated_at = float(actual.t[-1])
         log.info["truncated"] = f"ends inside a record at offset {cut} of {size}"
+    if skipped:
+        total = sum(b for _, b in skipped)
+        log.info["skipped_bytes"] = total
+        log.warnings.append(f"skipped {total} damaged or foreign byte(s) in {len(skipped)} span(s), the first at "
+                            f"offset {skipped[0][0]}: the records around them were read")
     return log

@@ -1,0 +1,79 @@
+"""Damaged and unusual tlogs, made here from a ground station's tlog: a recording that begins mid-record, bytes
+inserted in the middle, timestamps from a clock near 1970, a tiny file of one record. The reader resynchronises on
+the next record whose frame checksum holds and says what it skipped; detection goes by the records, not the date."""
+
+from __future__ import annotations
+
+import json
+import struct
+
+import numpy as np
+
+from flightlog_helpers import write_other_tlog
+
+from ksbo_mav.cli import main
+from ksbo_mav.flightlog import detect_format
+from ksbo_mav.mav.wire import mavlink
+
+
+def _score(capsys, path) -> tuple[int, dict, str]:
+    rc = main(["score", str(path), "--json"])
+    cap = capsys.readouterr()
+    return rc, (json.loads(cap.out) if rc == 0 else {}), cap.err
+
+
+def _lap2(doc: dict) -> float:
+    return doc["segments"][0]["figure8"]["laps"][1]["vs_reference"]["h_rms_m"]
+
+
+def test_a_recording_that_begins_mid_record_is_read_from_the_next_record(tmp_path, capsys) -> None:
+    good = write_other_tlog(tmp_path / "good.tlog").read_bytes()
+    rc, ref, _ = _score(capsys, tmp_path / "good.tlog")
+    assert rc == 0 and not any("skipped" in w for w in ref["warnings"])
+    late = tmp_path / "late.tlog"
+    late.write_bytes(good[1003:])  # inside a record: the head is not a record start
+    assert detect_format(late) == "tlog"
+    rc, doc, err = _score(capsys, late)
+    assert rc == 0, err
+    assert any(w.startswith("skipped ") and "offset 0" in w for w in doc["warnings"])
+    assert abs(_lap2(doc) - _lap2(ref)) < 0.01
+
+
+def test_bytes_inserted_in_the_middle_are_skipped_and_counted(tmp_path, capsys) -> None:
+    good = write_other_tlog(tmp_path / "good.tlog").read_bytes()
+    rc, ref, _ = _score(capsys, tmp_path / "good.tlog")
+    at = len(good) // 2 + 5
+    bad = tmp_path / "inserted.tlog"
+    bad.write_bytes(good[:at] + np.random.default_rng(7).bytes(64) + good[at:])
+    rc, doc, err = _score(capsys, bad)
+    assert rc == 0, err
+    warn = [w for w in doc["warnings"] if w.startswith("skipped ")]
+    assert len(warn) == 1 and int(warn[0].split()[1]) >= 64  # "skipped N damaged or foreign byte(s) ..."
+    assert abs(_lap2(doc) - _lap2(ref)) < 0.01
+
+
+def test_timestamps_near_1970_are_a_tlog_all_the_same(tmp_path, capsys) -> None:
+    good = bytearray(write_other_tlog(tmp_path / "good.tlog").read_bytes())
+    rc, ref, _ = _score(capsys, tmp_path / "good.tlog")
+    pos, base = 0, struct.unpack_from(">Q", good, 0)[0]
+    while pos < len(good):  # every record's timestamp minus the first: a clock that started at 0
+        (stamp,) = struct.unpack_from(">Q", good, pos)
+        struct.pack_into(">Q", good, pos, stamp - base + 1000)
+        n = good[pos + 9] + (12 if good[pos + 8] == 0xFD else 8) + (13 if good[pos + 8] == 0xFD and good[pos + 10] & 1
+                                                                   else 0)
+        pos += 8 + n
+    epoch = tmp_path / "epoch.tlog"
+    epoch.write_bytes(bytes(good))
+    rc, doc, err = _score(capsys, epoch)
+    assert rc == 0, err
+    assert abs(_lap2(doc) - _lap2(ref)) < 1e-9
+
+
+def test_a_tiny_tlog_of_one_record_is_a_tlog_and_says_what_it_lacks(tmp_path, capsys) -> None:
+    mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    frame = mav.heartbeat_encode(2, 3, 0, 0, 0).pack(mav)
+    tiny = tmp_path / "tiny.tlog"
+    tiny.write_bytes(struct.pack(">Q", 12_345) + frame + struct.pack(">Q", 12_400) + frame)
+    assert detect_format(tiny) == "tlog" and tiny.stat().st_size < 80
+    rc, _, err = _score(capsys, tiny)
+    assert rc == 2 and "no LOCAL_POSITION_NED" in err and "not a flight log" not in err
