@@ -77,3 +77,32 @@ def test_a_tiny_tlog_of_one_record_is_a_tlog_and_says_what_it_lacks(tmp_path, ca
     assert detect_format(tiny) == "tlog" and tiny.stat().st_size < 80
     rc, _, err = _score(capsys, tiny)
     assert rc == 2 and "no LOCAL_POSITION_NED" in err and "not a flight log" not in err
+
+
+def _ground_tlog(path, armed: bool) -> None:
+    """GUIDED on the ground for 20 s: heartbeats at 1 Hz, position and the autopilot's target both at the same
+    spot at 10 Hz (the target of GUIDED chosen before take-off is where the vehicle stands)."""
+    mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    out = bytearray()
+    t_us = 1_700_000_000_000_000
+    for k in range(200):
+        ms = 100 * k
+        frames = []
+        if k % 10 == 0:
+            frames.append(mav.heartbeat_encode(2, 3, 1 | (128 if armed else 0), 4, 4))  # GUIDED
+        frames.append(mav.local_position_ned_encode(ms, 0.01 * np.sin(k), 0.0, -0.02, 0, 0, 0))
+        frames.append(mav.position_target_local_ned_encode(ms, 1, 0b110111111000, 0.0, 0.0, -0.02, 0, 0, 0, 0, 0, 0,
+                                                           0, 0))
+        for f in frames:
+            out += struct.pack(">Q", t_us + 1000 * ms) + f.pack(mav)
+    path.write_bytes(bytes(out))
+
+
+def test_guided_on_the_ground_is_not_scored_as_perfect_tracking(tmp_path, capsys) -> None:
+    for armed in (False, True):  # GUIDED chosen before arming; armed but never lifted off
+        p = tmp_path / f"ground-{armed}.tlog"
+        _ground_tlog(p, armed)
+        rc, _, err = _score(capsys, p)
+        assert rc == 2 and "\n" not in err.strip(), err
+        if armed:
+            assert "too little motion" in err and "moved 0.02 m" in err

@@ -28,9 +28,16 @@ from ksbo_mav.flightlog.model import FlightLog, Segment
 
 
 
+#: A segment whose position spans less than this (m, along every axis) was not flown: the vehicle sat on the
+#: ground in a tracking mode (chosen before arming, or armed and never lifted off). Its error against the target
+#: would read as perfect tracking.
+MIN_MOTION_M = 0.5
+
+
 def find_segments(log: FlightLog, min_duration: float = 2.0) -> list[Segment]:
-    """Tracking-mode stretches that hold at least a few target samples. Without any mode information (a tlog
-    without HEARTBEATs) the whole stretch with targets counts as one segment."""
+    """Tracking-mode stretches that hold at least a few target samples and in which the vehicle moved (at least
+    :data:`MIN_MOTION_M`); a stretch skipped for too little motion is named in ``log.warnings``. Without any mode
+    information (a tlog without HEARTBEATs) the whole stretch with targets counts as one segment."""
     t_lo, t_hi = float(log.actual.t[0]), float(log.actual.t[-1])
     if log.target is None or len(log.target) == 0:
         return []
@@ -50,6 +57,14 @@ def find_segments(log: FlightLog, min_duration: float = 2.0) -> list[Segment]:
             continue
         n = int(np.sum((log.target.t >= a) & (log.target.t <= b)))
         if n < 10:
+            continue
+        inside = (log.actual.t >= a) & (log.actual.t <= b)
+        span = float(np.ptp(log.actual.pos[inside], axis=0).max()) if inside.sum() > 1 else 0.0
+        if span < MIN_MOTION_M:
+            msg = (f"skipped {name} from t={a:.1f} s to {b:.1f} s: the vehicle moved {span:.2f} m (less than "
+                   f"{MIN_MOTION_M:g} m: on the ground or not flown), too little motion to judge its tracking")
+            if msg not in log.warnings:
+                log.warnings.append(msg)
             continue
         out.append(Segment(len(out) + 1, a, b, name, last))
     return out
@@ -115,6 +130,9 @@ def analyse(log: FlightLog, mission=None, profile_name: str | None = None, parti
     if not segs:
         seen = ", ".join(dict.fromkeys(m.name for m in log.modes)) or "none logged"
         what = "no position targets at all" if log.target is None else f"modes seen: {seen}"
+        still = [w for w in log.warnings if w.startswith("skipped ") and "too little motion" in w]
+        if still:
+            what += f"; {len(still)} tracking stretch(es) skipped: {still[0]}"
         raise InputError(f"{log.path}: no segment where the vehicle tracked position targets in a guided/auto/"
                          f"offboard mode ({what})")
     if log.truncated_at is None and log.fmt in ("bin", "ulg") and segs[-1].open_end:
