@@ -106,3 +106,60 @@ def test_guided_on_the_ground_is_not_scored_as_perfect_tracking(tmp_path, capsys
         assert rc == 2 and "\n" not in err.strip(), err
         if armed:
             assert "too little motion" in err and "moved 0.02 m" in err
+
+
+def _global_target_tlog(path, origin=(47.397742, 8.545594, 488.0)) -> None:
+    """The ground station's tlog of write_other_tlog, but the vehicle's target only as POSITION_TARGET_GLOBAL_INT
+    (above home) and its position also as GLOBAL_POSITION_INT: what ArduPilot's default streams give a ground
+    station."""
+    from flightlog_helpers import T_DISARM, T_GUIDED, T_LAND, error, target
+
+    from ksbo_mav.flightlog.geo import EARTH_R
+    from ksbo_mav.mav.tlog import LINK_RECEIVED, TlogWriter
+
+    lat0, lon0, amsl0 = origin
+    veh = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    wr = TlogWriter(path)
+    usec = [1_700_000_000_000_000]
+
+    def put(msg):
+        usec[0] += 1000
+        wr.write(msg.pack(veh), LINK_RECEIVED, usec[0])
+
+    def glob(ned):
+        lat = lat0 + np.degrees(ned[0] / EARTH_R)
+        lon = lon0 + np.degrees(ned[1] / (EARTH_R * np.cos(np.radians(lat0))))
+        return int(round(lat * 1e7)), int(round(lon * 1e7)), -ned[2]
+
+    k, t = 0, 1.0
+    while t < T_DISARM:
+        ms = int(round(t * 1000))
+        if k % 50 == 0:
+            mode = 4 if T_GUIDED <= t < T_LAND else (9 if t >= T_LAND else 0)
+            put(veh.heartbeat_encode(2, 3, 128 | 1 if t >= 5 else 1, mode, 4, 3))
+        p, v = target(t)
+        a = p + error([t])[0]
+        put(veh.local_position_ned_encode(ms, *a, *v))
+        la, lo, up = glob(a)
+        put(veh.global_position_int_encode(ms, la, lo, int((amsl0 + up) * 1000), int(up * 1000), 0, 0, 0, 0))
+        if T_GUIDED <= t < T_LAND:
+            la, lo, up = glob(p)
+            put(veh.position_target_global_int_encode(ms, 6, 0b110111111000, la, lo, up, *v, 0, 0, 0, 0, 0))
+        k += 1
+        t = 1.0 + k * 0.02
+    wr.close()
+
+
+def test_targets_in_global_coordinates_are_scored_in_the_logs_own_local_frame(tmp_path, capsys) -> None:
+    """A tlog with only POSITION_TARGET_GLOBAL_INT (used to be "no position targets") scores as the same flight
+    against its local setpoints does, within a millimetre."""
+    ref_path = write_other_tlog(tmp_path / "local.tlog")
+    rc, ref, err = _score(capsys, ref_path)
+    assert rc == 0, err
+    glob = tmp_path / "global.tlog"
+    _global_target_tlog(glob)
+    rc, doc, err = _score(capsys, glob)
+    assert rc == 0, err
+    assert doc["target_source"].startswith("POSITION_TARGET_GLOBAL_INT")
+    a, b = ref["segments"][0]["vs_target"], doc["segments"][0]["vs_target"]
+    assert abs(a["h_rms_m"] - b["h_rms_m"]) < 1e-3 and abs(a["v_rms_m"] - b["v_rms_m"]) < 1e-3

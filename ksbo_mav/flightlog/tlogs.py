@@ -22,7 +22,7 @@ from ksbo_mav.flightlog.modes import COPTER_MODES, COPTER_TRACKING, PX4_AUTO_SUB
 #: the reader resynchronises on the next frame whose checksum holds, and says how many bytes it skipped.
 _IDS = {0: "HEARTBEAT", 32: "LOCAL_POSITION_NED", 84: "SET_POSITION_TARGET_LOCAL_NED",
         85: "POSITION_TARGET_LOCAL_NED", 253: "STATUSTEXT"}
-_TIMED = {30, 32, 85, 2, 33}  # messages whose time_boot_ms advances the vehicle clock
+_TIMED = {30, 32, 85, 87, 2, 33}  # messages whose time_boot_ms advances the vehicle clock
 
 
 def read_any_tlog(p: Path, partial: bool = False) -> FlightLog:
@@ -46,6 +46,7 @@ def _tlog_walk(mm, size, parser, p):
     autopilot = "unknown"
     clock = 0.0
     pos_rows, tgt_rows, cmd_rows, modes, markers = [], [], [], [], []
+    glob_rows, gtgt_rows = [], []  # GLOBAL_POSITION_INT, POSITION_TARGET_GLOBAL_INT (flightlog.geo)
     last_mode = None
     count = 0
     cut = None
@@ -122,7 +123,34 @@ def _tlog_walk(mm, size, parser, p):
             pos_rows.append((t, msg.x, msg.y, msg.z, msg.vx, msg.vy, msg.vz))
         elif msgid == 85 and msg.coordinate_frame == 1 and not msg.type_mask & 0x7:
             tgt_rows.append((t, msg.x, msg.y, msg.z, msg.vx, msg.vy, msg.vz))
-    return autopilot, pos_rows, tgt_rows, cmd_rows, modes, markers, count, cut, skipped
+        elif msgid == 33:
+            glob_rows.append((t, msg.lat * 1e-7, msg.lon * 1e-7, msg.alt * 1e-3, msg.relative_alt * 1e-3))
+        elif msgid == 87 and not msg.type_mask & 0x7:
+            gtgt_rows.append((t, msg.lat_int * 1e-7, msg.lon_int * 1e-7, msg.alt, msg.coordinate_frame, msg.vx,
+                              msg.vy, msg.vz))
+    tgt_label = "POSITION_TARGET_LOCAL_NED (autopilot target)"
+    if not tgt_rows and gtgt_rows:
+        tgt_rows = _global_targets(pos_rows, glob_rows, gtgt_rows)
+        tgt_label = "POSITION_TARGET_GLOBAL_INT (autopilot target, in the log's local frame)"
+    return autopilot, pos_rows, tgt_rows, tgt_label, cmd_rows, modes, markers, count, cut, skipped
+
+
+def _global_targets(pos_rows, glob_rows, gtgt_rows) -> list[tuple]:
+    """POSITION_TARGET_GLOBAL_INT rows in the local frame (origin from the GLOBAL_POSITION_INT /
+    LOCAL_POSITION_NED pairs); [] when the log holds no such pairs."""
+    from ksbo_mav.flightlog.geo import origin_from_pairs, to_local
+
+    if not pos_rows or not glob_rows:
+        return []
+    pos, glob = np.asarray(pos_rows, float), np.asarray(glob_rows, float)
+    local = np.column_stack([np.interp(glob[:, 0], pos[:, 0], pos[:, k]) for k in (1, 2, 3)])
+    inside = (glob[:, 0] >= pos[0, 0]) & (glob[:, 0] <= pos[-1, 0])
+    if not inside.any():
+        return []
+    origin = origin_from_pairs(glob[inside, 1:5], local[inside])
+    g = np.asarray(gtgt_rows, float)
+    ned = to_local(g[:, 1], g[:, 2], g[:, 3], g[:, 4].astype(int), origin)
+    return [(t, *xyz, *v) for t, xyz, v in zip(g[:, 0], ned, g[:, 5:8])]
 
 
 def _hb_mode(autopilot: str, custom: int) -> tuple[str, bool]:
@@ -143,8 +171,8 @@ def _track(rows, label) -> Track | None:
     return Track(a[:, 0], a[:, 1:4], a[:, 4:7], label)
 
 
-def _tlog_to_log(p, size, autopilot, pos_rows, tgt_rows, cmd_rows, modes, markers, count, cut, skipped
-                 ) -> FlightLog:
+def _tlog_to_log(p, size, autopilot, pos_rows, tgt_rows, tgt_label, cmd_rows, modes, markers, count, cut,
+                 skipped) -> FlightLog:
     actual = _track(pos_rows, "LOCAL_POSITION_NED")
     if actual is None:
         if cut is not None:
@@ -152,7 +180,7 @@ def _tlog_to_log(p, size, autopilot, pos_rows, tgt_rows, cmd_rows, modes, marker
                              f"LOCAL_POSITION_NED")
         raise InputError(f"tlog {p} has no LOCAL_POSITION_NED from the vehicle ({count} records): ask for it "
                          f"with SET_MESSAGE_INTERVAL (id 32) when flying")
-    target = _track(tgt_rows, "POSITION_TARGET_LOCAL_NED (autopilot target)")
+    target = _track(tgt_rows, tgt_label)
     commanded = _track(cmd_rows, "SET_POSITION_TARGET_LOCAL_NED (sent by the ground station)")
     log = FlightLog(p, "tlog", autopilot, actual, target or commanded, commanded, modes, markers,
                     info={"bytes": size, "records": count})
