@@ -80,6 +80,8 @@ class PlanarVehicle:
         self._thrust = np.full(2, self.config.constants.hover_thrust)
         self._t = 0.0
         self.thrust_max = self.config.constants.thrust_max  # N per motor pair, scales SERVO_OUTPUT_RAW
+        #: Thrust produced per thrust commanded (1 = as built; lower = weaker motors, a sagging pack).
+        self.authority = 1.0
 
     # --- parameters -------------------------------------------------------------------------------------
     def param_specs(self) -> list[ParamSpec]:
@@ -114,6 +116,8 @@ class PlanarVehicle:
         ref_pos = np.array([_or(setpoint.pos[0], s[0]), _or(-setpoint.pos[2], s[2])])
         ref_vel = np.array([_or(setpoint.vel[0], 0.0), _or(-setpoint.vel[2], 0.0)])
         u = self._pid(self._state, ref_pos, ref_vel)
+        if self.authority != 1.0:
+            u = u * self.authority
         self._state = integrate(self._state, u, self.config.constants, self.ctrl_dt, self.config.n_sub)
         self._thrust = u[0]
         self._t += self.ctrl_dt
@@ -124,6 +128,16 @@ class PlanarVehicle:
         return VehicleState(time_s=self._t, pos=np.array([x, 0.0, -z]), vel=np.array([vx, 0.0, -vz]),
                             rpy=np.array([0.0, -th, 0.0]), rates=np.array([0.0, -om, 0.0]),
                             thrust=self._thrust.copy(), crashed=code, crash_reason="" if code == OK else REASONS[code])
+
+    # --- a vehicle that changes (ksbo_sim.conditions) -------------------------------------------------------
+    def set_authority(self, k: float) -> None:
+        """From the next step, each motor pair produces ``k`` times the thrust its controller commands."""
+        self.authority = float(k)
+
+    def disturb(self, acc_ned: np.ndarray, dt: float) -> None:
+        """An external acceleration (NED; east ignored) acting for ``dt`` seconds, e.g. the wind."""
+        self._state[0, 1] += float(acc_ned[0]) * dt
+        self._state[0, 3] -= float(acc_ned[2]) * dt
 
     @property
     def planar_state(self) -> np.ndarray:

@@ -16,6 +16,7 @@ import numpy as np
 
 from ksbo_sim.estimator import Estimator
 from ksbo_sim.mavlink.personality import Mode
+from ksbo_sim.mavlink.rtl import RTL_SPEED, rtl_setpoint
 from ksbo_sim.vehicle import Setpoint, VehicleModel, VehicleState
 
 SEV_EMERGENCY, SEV_CRITICAL, SEV_ERROR, SEV_WARNING, SEV_NOTICE, SEV_INFO = 0, 2, 3, 4, 5, 6
@@ -70,6 +71,11 @@ class Flight:
         self.takeoff_mode: Mode | None = None
         self.after_takeoff_mode: Mode | None = None
         self.on_mode_change: Callable[[Mode], None] = lambda m: None
+        #: An autopilot failsafe (low battery) is active: HEARTBEAT system_status CRITICAL while armed.
+        self.failsafe = False
+        #: Refuses arming with a reason (the battery's pre-arm check), else None.
+        self.arm_check: Callable[[], str | None] = lambda: None
+        self.rtl_landing = False
         self._place(np.zeros(3))
 
     # --- state -----------------------------------------------------------------------------------------
@@ -83,6 +89,8 @@ class Flight:
     def system_status(self) -> int:
         if self.crash_status:
             return self.crash_status
+        if self.failsafe and self.armed:
+            return STATUS_CRITICAL
         return STATUS_ACTIVE if self.armed and not self.landed else STATUS_STANDBY
 
     def reset_home(self) -> None:
@@ -102,6 +110,9 @@ class Flight:
             return "Arm: Mode not armable"
         if not self.landed:
             return "Arm: vehicle not on the ground"
+        refused = self.arm_check()
+        if refused:
+            return refused
         self.armed = True
         self.guided_since_us = None
         self.notify(SEV_INFO, "Arming motors")
@@ -151,8 +162,10 @@ class Flight:
         self.target = None
         if mode is not Mode.TAKEOFF:
             self.takeoff_alt = None
-        if mode is Mode.LAND:
+        self.rtl_landing = False
+        if mode in (Mode.LAND, Mode.RTL):
             self.land_down = float(self.est_pos[2])
+        if mode is Mode.LAND:
             if self.armed and self.landed:
                 self.armed = False
                 self.notify(SEV_INFO, "Landed, disarming")
@@ -213,7 +226,7 @@ class Flight:
         if st.crashed:
             fence = st.crashed in getattr(self.model, "fence_codes", ())
             self.crash(STATUS_CRITICAL if fence else STATUS_EMERGENCY, st.crash_reason or "crash")
-        elif self.mode is Mode.LAND and st.pos[2] > TOUCHDOWN_DOWN_M and self.land_down >= 0.0:
+        elif (self.mode is Mode.LAND or self.rtl_landing) and st.pos[2] > TOUCHDOWN_DOWN_M and self.land_down >= 0.0:
             self.landed, self.armed = True, False
             self._place(np.array([st.pos[0], st.pos[1], 0.0]))
             self.notify(SEV_INFO, "Landed, disarming")
@@ -233,7 +246,10 @@ class Flight:
             climbing = self.takeoff_down > -self.takeoff_alt
             return Setpoint(pos=np.array([self.hold[0], self.hold[1], self.takeoff_down]),
                             vel=np.array([0.0, 0.0, -self.takeoff_speed if climbing else 0.0]), acc=nan3)
-        if self.mode is Mode.LAND:
+        if self.mode is Mode.RTL and not self.rtl_landing:
+            self.hold, vel, self.rtl_landing = rtl_setpoint(self.hold, RTL_SPEED, dt)
+            return Setpoint(pos=self.hold.copy(), vel=vel, acc=nan3)
+        if self.mode is Mode.LAND or self.rtl_landing:
             self.land_down = min(0.0, self.land_down + self.land_speed * dt)
             return Setpoint(pos=np.array([self.hold[0], self.hold[1], self.land_down]),
                             vel=np.array([0.0, 0.0, self.land_speed if self.land_down < 0 else 0.0]), acc=nan3)

@@ -44,6 +44,77 @@ def _noise(text: str) -> tuple[float, float, float]:
     return pos, vel, vals[2] if len(vals) > 2 else 10.0 * pos
 
 
+def _numbers(n_min: int, n_max: int, sep: str = ",") -> "argparse._TypeFn":
+    def parse(text: str) -> tuple[float, ...]:
+        try:
+            vals = tuple(float(v) for v in text.split(sep))
+            if not n_min <= len(vals) <= n_max or any(not v >= 0 for v in vals):
+                raise ValueError
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {n_min} to {n_max} non-negative numbers separated by "
+                                             f"{sep!r}, got {text!r}") from None
+        return vals
+    return parse
+
+
+def _drift(text: str) -> tuple[float, str]:
+    rate, _, per = text.partition(",")
+    try:
+        value = float(rate)
+        if not 0 <= value <= 1 or per not in ("", "min", "pack"):
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected RATE[,min|pack] with RATE in [0, 1], got {text!r}") from None
+    return value, per or "min"
+
+
+def add_condition_arguments(p: argparse.ArgumentParser) -> None:
+    """A battery and a vehicle that changes while it flies (:mod:`ksbo_sim.conditions`)."""
+    p.add_argument("--battery", type=_numbers(1, 3), default=None, metavar="MAH[,CELLS[,AMPS]]",
+                   help="a finite pack: capacity [mAh], cells (default 3), hover current [A] (default 10); "
+                        "voltage sags with discharge, SYS_STATUS/BATTERY_STATUS report it, and below BATT_LOW_VOLT "
+                        "(10.5 V) for 10 s the low-battery failsafe switches to RTL (BATT_FS_LOW_ACT)")
+    p.add_argument("--drift", type=_drift, default=None, metavar="RATE[,min|pack]",
+                   help="the vehicle loses this fraction of its control authority per minute of flight (min) or "
+                        "per full pack used (pack, needs --battery)")
+    p.add_argument("--step-change", type=_numbers(2, 2, ":"), default=None, metavar="S:FACTOR",
+                   help="after S seconds of flight the authority is multiplied by FACTOR (a payload, a propeller)")
+    p.add_argument("--wind", type=_numbers(1, 4), default=None, metavar="MPS[,RISE[,MAX[,TURB]]]",
+                   help="wind toward north: mean speed at take-off, its rise per minute of flight, its cap "
+                        "(default 20), gusts as a fraction of it (default 0.3); WIND messages report it")
+    p.add_argument("--wind-step", type=_numbers(2, 2, ":"), default=None, metavar="S:MPS",
+                   help="after S seconds of flight the mean wind becomes MPS")
+
+
+def condition_objects(args: argparse.Namespace) -> tuple | None:
+    """(Battery or None, Conditions or None) from the options, or None when none is given."""
+    from ksbo_sim.battery import Battery
+    from ksbo_sim.conditions import Conditions
+
+    battery = None
+    if args.battery:
+        b = args.battery
+        if not b[0] > 0:
+            raise SimInputError("--battery: the capacity must be positive")
+        cells = int(b[1]) if len(b) > 1 else 3
+        battery = Battery(b[0], cells=cells, hover_current_a=b[2] if len(b) > 2 else 10.0, low_volt=3.5 * cells)
+    kw: dict = {"seed": args.seed}
+    if args.drift:
+        kw.update(drift=args.drift[0], drift_per=args.drift[1])
+        if args.drift[1] == "pack" and battery is None:
+            raise SimInputError("--drift RATE,pack needs --battery")
+    if args.step_change:
+        kw.update(step_at_s=args.step_change[0], step_factor=args.step_change[1])
+    if args.wind:
+        w = args.wind
+        kw.update(wind_mps=w[0], wind_rise_per_min=w[1] if len(w) > 1 else 0.0,
+                  wind_max_mps=w[2] if len(w) > 2 else 20.0, turbulence=w[3] if len(w) > 3 else 0.3)
+    if args.wind_step:
+        kw.update(wind_at_s=args.wind_step[0], wind_to_mps=args.wind_step[1])
+    conditions = Conditions(**kw) if len(kw) > 1 else None
+    return (battery, conditions) if battery is not None or conditions is not None else None
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     where = p.add_mutually_exclusive_group()
     where.add_argument("--udp", type=_hostport, metavar="HOST:PORT",
@@ -71,6 +142,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="faults start S simulated seconds into the guided setpoint stream")
     p.add_argument("--set", type=_assignment, action="append", default=[], metavar="NAME=VALUE",
                    help="set a parameter at start (not persisted); repeatable")
+    add_condition_arguments(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -107,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         server = Server(model, PERSONALITIES[args.personality], link, lockstep=args.lockstep, speedup=args.speedup,
                         sysid=args.sysid, seed=args.seed, params_path=args.params, product_id=product_id,
-                        overrides=overrides)
+                        overrides=overrides, power=condition_objects(args))
     except BaseException:
         link.close()
         raise

@@ -34,6 +34,7 @@ from ksbo_sim.mavlink.flight import SEV_NOTICE, STATUS_EMERGENCY, Flight
 from ksbo_sim.mavlink.link import Link
 from ksbo_sim.mavlink.params import ParamTable
 from ksbo_sim.mavlink.personality import Personality
+from ksbo_sim.mavlink.power import Power
 from ksbo_sim.mavlink.telemetry import HEARTBEAT, LOCAL_POSITION_NED, Telemetry
 from ksbo_sim.vehicle import ParamSpec, VehicleModel
 
@@ -69,7 +70,7 @@ class Server:
     def __init__(self, model: VehicleModel, personality: Personality, link: Link, *, lockstep: bool = False,
                  speedup: float = 1.0, sysid: int = 1, compid: int = 1, seed: int | None = None,
                  params_path: str | None = None, product_id: int = 1,
-                 overrides: dict[str, float] | None = None) -> None:
+                 overrides: dict[str, float] | None = None, power: tuple | None = None) -> None:
         self.model, self.personality, self.link = model, personality, link
         self.lockstep, self.speedup, self.sysid, self.compid = lockstep, float(speedup), sysid, compid
         self.now_us = 0
@@ -79,9 +80,11 @@ class Server:
         self.flight = Flight(model, self.estimator, self._notify)
         self.flight.takeoff_mode, self.flight.after_takeoff_mode = personality.takeoff_mode, \
             personality.after_takeoff_mode
-        self.telemetry = Telemetry(self.mav, self.flight, personality, product_id)
+        battery, conditions = power or (None, None)
+        self.power = Power(self.flight, battery, conditions, self._notify)  # (battery, conditions) or nothing
+        self.telemetry = Telemetry(self.mav, self.flight, personality, product_id, self.power)
         self.commands = Commands(self)
-        own = endpoint_specs()
+        own = endpoint_specs() + self.power.params
         self._own = {s.name for s in own}
         self.params = ParamTable(list(model.param_specs()) + own, self._param_changed, personality.encoding,
                                  readonly=("SIM_LOCKSTEP",), volatile=FAULT_PARAMS, path=params_path,
@@ -109,6 +112,8 @@ class Server:
     def _param_changed(self, name: str, value: float) -> None:
         if name not in self._own:
             self.model.set_param(name, value)
+            return
+        if self.power.set_param(name, value):
             return
         f, v = self.flight, self.params.values if hasattr(self, "params") else None
         if name in ("SIM_POS_NOISE", "SIM_VEL_NOISE", "SIM_ACC_NOISE") and v is not None:
@@ -171,6 +176,7 @@ class Server:
         dt_us = self.flight.dt_us
         for _ in range(n):
             self.flight.step(self.now_us)
+            self.power.step(self.model.ctrl_dt)
             self.now_us += dt_us
             if self.link.has_peers:  # nobody listening: skip encoding (matters at high speed-ups)
                 self.telemetry.send_due(self.now_us, (LOCAL_POSITION_NED,) if reply else ())

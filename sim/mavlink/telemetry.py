@@ -13,6 +13,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from ksbo_sim.mavlink.flight import Flight
 from ksbo_sim.mavlink.personality import Mode, Personality
+from ksbo_sim.mavlink.power import Power
 
 HEARTBEAT, SYS_STATUS, SYSTEM_TIME, ATTITUDE, LOCAL_POSITION_NED = 0, 1, 2, 30, 32
 SERVO_OUTPUT_RAW, ACTUATOR_OUTPUT_STATUS, AUTOPILOT_VERSION = 36, 375, 148
@@ -29,12 +30,15 @@ _SENSORS = 0x1 | 0x2 | 0x20 | 0x8000  # gyro, accel, GPS-like position, motor ou
 
 
 class Telemetry:
-    def __init__(self, mav: mavlink.MAVLink, flight: Flight, personality: Personality, product_id: int) -> None:
+    def __init__(self, mav: mavlink.MAVLink, flight: Flight, personality: Personality, product_id: int,
+                 power: Power | None = None) -> None:
         self.mav = mav
         self.flight = flight
         self.p = personality
         self.product_id = product_id
-        self.intervals = dict(DEFAULT_INTERVALS)
+        self.power = power
+        self.defaults = {**DEFAULT_INTERVALS, **(power.streams() if power is not None else {})}
+        self.intervals = dict(self.defaults)
         self.due = {m: 0 for m in self.intervals}
         self.boot_unix_us = int(time.time() * 1e6)
         self.drop_rate = 0.0
@@ -44,12 +48,12 @@ class Telemetry:
     # --- scheduling ------------------------------------------------------------------------------------
     def set_interval(self, msg_id: int, interval_us: float) -> bool:
         """SET_MESSAGE_INTERVAL semantics: -1 disable, 0 default, > 0 interval. False if not streamable."""
-        if msg_id not in DEFAULT_INTERVALS:
+        if msg_id not in self.defaults:
             return False
         if interval_us < 0:
             self.intervals[msg_id] = 0
         elif interval_us == 0:
-            self.intervals[msg_id] = DEFAULT_INTERVALS[msg_id]
+            self.intervals[msg_id] = self.defaults[msg_id]
         else:
             self.intervals[msg_id] = int(interval_us)
         self.due[msg_id] = 0
@@ -82,7 +86,8 @@ class Telemetry:
             base = 1 | 16 | (8 if mode is Mode.GUIDED else 0) | (128 if f.armed else 0)
             mav.heartbeat_send(2, self.p.autopilot, base, self.p.custom_mode(mode), f.system_status, 3)
         elif msg_id == SYS_STATUS:
-            mav.sys_status_send(_SENSORS, _SENSORS, _SENSORS, 200, 12600, 500, 100,
+            mv, ca, pct = self.power.sys_status() if self.power is not None else (12600, 500, 100)
+            mav.sys_status_send(_SENSORS, _SENSORS, _SENSORS, 200, mv, ca, pct,
                                 int(self.drop_rate * 10000), 0, 0, 0, 0, 0)
         elif msg_id == SYSTEM_TIME:
             mav.system_time_send(self.boot_unix_us + now_us, ms)
@@ -105,7 +110,7 @@ class Telemetry:
             mav.autopilot_version_send(self.p.capabilities, self.p.flight_sw_version, 0, 0, 0, custom,
                                        [0] * 8, [0] * 8, self.p.vendor_id, self.product_id, 0)
         else:
-            return False
+            return self.power is not None and self.power.send(mav, msg_id, now_us)
         return True
 
     def statustext(self, severity: int, text: str) -> None:
