@@ -153,7 +153,7 @@ def test_psc_logging_disabled_names_the_bit(tmp_path, capsys):
 
 def test_truncated_tlog_of_other_client(tmp_path, capsys):
     data = write_other_tlog(tmp_path / "a.tlog").read_bytes()
-    (tmp_path / "cut.tlog").write_bytes(data[: len(data) * 2 // 3 + 5])
+    (tmp_path / "cut.tlog").write_bytes(data[: data.index(b"\xfd", len(data) * 2 // 3) + 5])  # inside a frame
     err = _one_line_error(capsys, tmp_path / "cut.tlog")
     assert "truncated" in err and "--partial" in err
 

@@ -55,6 +55,10 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_mav.errors import InputError
     from ksbo_mav.flightlog import score_file
 
+    if args.plot:
+        from ksbo_mav.flightlog.plot import check_plot_path
+
+        check_plot_path(args.plot)
     ra, log_a, mission = score_file(args.a, args.profile, args.partial, args.segment_a)
     rb, log_b, _ = score_file(args.b, args.profile, args.partial, args.segment_b)
     both_f8 = any(s["figure8"] for s in ra["segments"]) and any(s["figure8"] for s in rb["segments"])

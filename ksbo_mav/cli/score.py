@@ -53,6 +53,10 @@ def is_trial_tlog(path: str | Path) -> bool:
 def run(args: argparse.Namespace) -> int:
     from ksbo_mav.flightlog import detect_format, score_file
 
+    if args.plot:
+        from ksbo_mav.flightlog.plot import check_plot_path
+
+        check_plot_path(args.plot)
     fmt = detect_format(args.log)
     if fmt == "tlog" and is_trial_tlog(args.log):
         return _run_trial(args)

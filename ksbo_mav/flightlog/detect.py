@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import struct
 from pathlib import Path
 
 from ksbo_mav.errors import InputError
@@ -10,7 +9,6 @@ from ksbo_mav.errors import InputError
 ULOG_MAGIC = b"ULog\x01\x12\x35"
 DF_HEAD = b"\xa3\x95"
 DF_FMT = 0x80
-_USEC_MIN, _USEC_MAX = 946_684_800 * 10**6, 4_102_444_800 * 10**6  # 2000..2100, as ksbo_mav.mav.tlog
 FORMATS = {"tlog": "MAVLink telemetry log (.tlog)", "bin": "ArduPilot DataFlash log (.BIN)", "ulg": "PX4 ULog (.ulg)"}
 
 
@@ -49,11 +47,26 @@ def detect_format(path: str | Path) -> str:
         if len(head) < 3 or head[2] != DF_FMT:
             raise InputError(f"DataFlash log {p} is corrupted: it must start with a FMT message")
         return "bin"
-    if len(head) >= 10:
-        (stamp,) = struct.unpack_from(">Q", head, 0)
-        if _USEC_MIN <= (stamp & ~3) <= _USEC_MAX and head[8] in (0xFE, 0xFD):
-            return "tlog"
-    elif len(head) < 10:
+    return _by_scanning(p)
+
+
+SCAN = 1 << 16  # bytes searched for a record start when the file does not begin with one
+
+
+def _by_scanning(p: Path) -> str:
+    """A tlog whose first record is valid whatever its timestamp, or one that starts mid-stream (a valid frame
+    further in); a DataFlash log whose head is missing (FMT messages further in)."""
+    from ksbo_mav.flightlog.tlog_frames import first_record
+
+    with open(p, "rb") as fh:
+        head = fh.read(SCAN)
+    if len(head) < 8 + 8:
         raise InputError(f"log {p} is truncated or not a flight log: only {len(head)} byte(s)")
+    at = first_record(head, len(head))
+    df = head.find(DF_HEAD + bytes([DF_FMT]))
+    if at is not None and (df < 0 or at <= df):
+        return "tlog"
+    if df >= 0 and head.find(DF_HEAD + bytes([DF_FMT]), df + 3) >= 0:
+        return "bin"
     raise InputError(f"{p} is corrupted or not a flight log: its first bytes are neither a MAVLink .tlog record, "
                      f"an ArduPilot DataFlash .BIN header nor a PX4 ULog header")

@@ -101,6 +101,7 @@ class FlightLog:
     warnings: list[str] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
     truncated_at: float | None = None  # vehicle time of the last complete sample before a cut, if the file is cut
+    skipped: list = field(default_factory=list)  # damaged spans the reader skipped (tlog_frames.Skipped)
 
 
 @dataclass
@@ -110,3 +111,4 @@ class Segment:
     t_end: float
     mode: str
     open_end: bool  # the log ends while still in this segment
+    note: str = ""  # why it starts here when not at a mode change (a tuned parameter changed)

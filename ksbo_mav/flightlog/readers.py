@@ -23,7 +23,7 @@ from ksbo_mav.errors import InputError
 from ksbo_mav.flightlog.dataflash import read_dataflash
 from ksbo_mav.flightlog.detect import detect_format
 from ksbo_mav.flightlog.model import FlightLog, Marker, ModeChange, Track
-from ksbo_mav.flightlog.modes import COPTER_MODES, COPTER_TRACKING  # noqa: F401 - re-exported
+from ksbo_mav.flightlog.modes import COPTER_MODES, COPTER_TRACKING, ardupilot_mode, vehicle_from_text  # noqa: F401
 from ksbo_mav.flightlog.tlogs import read_any_tlog
 from ksbo_mav.flightlog.ulog import read_ulg
 
@@ -38,11 +38,46 @@ def read_log(path: str | Path, partial: bool = False) -> FlightLog:
 
 
 # --- ArduPilot DataFlash ------------------------------------------------------------------------------------------
-BIN_WANTED = {"PSCN", "PSCE", "PSCD", "GUIP", "MODE", "MSG", "PARM", "ARM"}
+BIN_WANTED = {"PSCN", "PSCE", "PSCD", "GUIP", "MODE", "MSG", "PARM", "ARM", "EV"}
+EV_ARMED, EV_DISARMED = 10, 11  # DataFlash EV ids (logs without ARM messages)
+
+
+def bin_modes(c, vehicle: str) -> list[ModeChange]:
+    """Mode changes with the arming state folded in: a mode chosen while disarmed is DISARMED (not tracking) until
+    the vehicle arms; every arm and disarm (ARM, or EV in older logs) is seen."""
+    events = []
+    for row in c.data.get("MODE", ()):
+        events.append((float(row["TimeUS"]) * 1e-6, "mode", int(row["ModeNum"])))
+    for row in c.data.get("ARM", ()):
+        events.append((float(row["TimeUS"]) * 1e-6, "arm", int(row["ArmState"]) != 0))
+    if "ARM" not in c.data:
+        for row in c.data.get("EV", ()):
+            if int(row["Id"]) in (EV_ARMED, EV_DISARMED):
+                events.append((float(row["TimeUS"]) * 1e-6, "arm", int(row["Id"]) == EV_ARMED))
+    events.sort(key=lambda e: e[0])
+    arm_known = any(kind == "arm" for _, kind, _ in events)
+    first_arm = next((v for _, kind, v in events if kind == "arm"), None)
+    armed = not arm_known or first_arm is False  # before the first arm record: the opposite of what it records
+    mode, out, last = None, [], None
+    for t, kind, v in events:
+        if kind == "mode":
+            mode = v
+        else:
+            armed = v
+        if mode is None:
+            continue
+        name, tracking = ardupilot_mode(vehicle, mode)
+        key = (name, armed)
+        if key != last:
+            out.append(ModeChange(t, name if armed else "DISARMED", tracking and armed))
+            last = key
+    return out
 
 
 def read_bin(p: Path, partial: bool = False) -> FlightLog:
     c = read_dataflash(p, BIN_WANTED)
+    banner = _banner(c)
+    vehicle = vehicle_from_text(banner) or "copter"
     have = {k for k in ("PSCN", "PSCE", "PSCD") if k in c.data and len(c.data[k])}
     params = _bin_params(c)
     if have != {"PSCN", "PSCE", "PSCD"}:
@@ -77,17 +112,7 @@ def read_bin(p: Path, partial: bool = False) -> FlightLog:
         sel = np.isin(g["Type"], (2, 3))
         if sel.any():
             commanded = Track(g["TimeUS"][sel] * 1e-6, pos[sel], vel[sel], "GUIP (guided setpoint received)")
-    modes = []
-    if "MODE" in c.data:
-        for row in c.data["MODE"]:
-            num = int(row["ModeNum"])
-            modes.append(ModeChange(float(row["TimeUS"]) * 1e-6, COPTER_MODES.get(num, f"MODE{num}"),
-                                    num in COPTER_TRACKING))
-    if "ARM" in c.data:
-        for row in c.data["ARM"]:
-            if int(row["ArmState"]) == 0:
-                modes.append(ModeChange(float(row["TimeUS"]) * 1e-6, "DISARMED", False))
-    modes.sort(key=lambda m: m.t)
+    modes = bin_modes(c, vehicle)
     markers = []
     if "MSG" in c.data:
         for row in c.data["MSG"]:
@@ -98,11 +123,21 @@ def read_bin(p: Path, partial: bool = False) -> FlightLog:
                 markers.append(Marker(float(row["TimeUS"]) * 1e-6, text))
     log = FlightLog(p, "bin", "ardupilot", actual, target, commanded, modes, markers,
                     info={"bytes": c.size, "messages": c.messages, "pscn": n, "params": params,
+                          "param_changes": [(float(r["TimeUS"]) * 1e-6, r["Name"].split(b"\0", 1)[0].decode(
+                              "ascii", "replace"), float(r["Value"])) for r in c.data.get("PARM", ())],
                           "end_offset": c.end})
     if c.truncated:
         log.truncated_at = float(t[-1]) if n else None
         log.info["truncated"] = f"ends inside a message at offset {c.end} of {c.size}"
     return log
+
+
+def _banner(c) -> str:
+    for row in c.data.get("MSG", ()):
+        text = row["Message"].split(b"\0", 1)[0].decode("ascii", "replace")
+        if vehicle_from_text(text):
+            return text
+    return ""
 
 
 def _bin_params(c) -> dict[str, float]:

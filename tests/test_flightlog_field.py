@@ -1,0 +1,110 @@
+"""Logs as they come from the field, made here: an unwritable plot path, ground time that must not be scored, a
+DataFlash log that disarms and re-arms, a tiny tlog with a clock near the epoch, damaged and mid-stream copies."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from flightlog_helpers import MISSION, DFWriter, write_bin, write_other_tlog, write_ulg
+
+from ksbo_mav.cli import main
+from ksbo_mav.flightlog import detect_format, read_log
+from ksbo_mav.mav.tlog import LINK_RECEIVED, TlogWriter
+from ksbo_mav.mav.wire import mavlink
+
+
+def one_line_error(capsys, *argv) -> str:
+    rc = main([*map(str, argv)])
+    out, err = capsys.readouterr()
+    assert rc == 2 and "Traceback" not in err and err.startswith("error: ") and err.count("\n") == 1, (out, err)
+    return err
+
+
+def test_unwritable_plot_path_is_one_line(tmp_path, capsys):
+    log = write_bin(tmp_path / "a.bin")
+    (tmp_path / "file").write_text("x")
+    err = one_line_error(capsys, "score", log, "--plot", tmp_path / "file" / "sub" / "p.png")
+    assert "cannot write plot" in err
+    err = one_line_error(capsys, "compare", log, log, "--plot", tmp_path / "file" / "p.png")
+    assert "cannot write plot" in err
+
+
+def _ground_bin(path, arm: bool, height: float):
+    """GUIDED chosen at t=5 s; armed at t=10 s if ``arm`` (else disarmed throughout); the vehicle follows a moving target ``height`` m up."""
+    w = DFWriter()
+    w.define(120, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn")
+    w.define(186, "ARM", "QBIBB", "TimeUS,ArmState,ArmChecks,Forced,Method")
+    for i, ax in enumerate("NED"):
+        w.define(200 + i, f"PSC{ax}", "Qfffffffff",
+                 f"TimeUS,DP{ax},TP{ax},P{ax},DV{ax},TV{ax},V{ax},DA{ax},TA{ax},A{ax}")
+    us = lambda t: int(t * 1e6)  # noqa: E731
+    w.msg("MODE", us(1), 0, 0, 1)
+    w.msg("MODE", us(5), 4, 4, 2)
+    w.msg("ARM", us(10 if arm else 2), 1 if arm else 0, 0, 0, 1)  # armed at 10 s, or a disarm logged at 2 s
+    for k in range(400):
+        t = 1 + 0.1 * k
+        p = (math.sin(0.2 * t) * 3, 0.0, -height)
+        for i, ax in enumerate("NED"):
+            w.msg(f"PSC{ax}", us(t), p[i], p[i], p[i], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    path.write_bytes(bytes(w.buf))
+    return path
+
+
+def test_ground_time_is_not_scored(tmp_path, capsys):
+    err = one_line_error(capsys, "score", _ground_bin(tmp_path / "disarmed.bin", arm=False, height=5.0))
+    assert "no segment where the vehicle tracked" in err and "DISARMED" in err  # GUIDED chosen, never armed
+    err = one_line_error(capsys, "score", _ground_bin(tmp_path / "ground.bin", arm=True, height=0.04))
+    assert "on the ground" in err and "take-off point" in err  # armed, never above 0.04 m
+    rc = main(["score", str(_ground_bin(tmp_path / "hover.bin", arm=True, height=0.0)), "--json"])
+    assert rc == 2  # never 0.000 m "perfect" for ground time
+    capsys.readouterr()
+
+
+def test_dataflash_sees_rearm(tmp_path):
+    w = DFWriter()
+    w.define(120, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn")
+    w.define(186, "ARM", "QBIBB", "TimeUS,ArmState,ArmChecks,Forced,Method")
+    w.define(200, "PSCN", "Qfffffffff", "TimeUS,DPN,TPN,PN,DVN,TVN,VN,DAN,TAN,AN")
+    w.define(201, "PSCE", "Qfffffffff", "TimeUS,DPE,TPE,PE,DVE,TVE,VE,DAE,TAE,AE")
+    w.define(202, "PSCD", "Qfffffffff", "TimeUS,DPD,TPD,PD,DVD,TVD,VD,DAD,TAD,AD")
+    for t, what in ((1, ("MODE", 1e6, 4, 4, 1)), (2, ("ARM", 2e6, 1, 0, 0, 1)), (3, ("ARM", 3e6, 0, 0, 0, 1)),
+                    (4, ("ARM", 4e6, 1, 0, 0, 1))):
+        w.msg(what[0], *[int(what[1])] + list(what[2:]))
+    for k in range(60):
+        for ax in "NED":
+            w.msg(f"PSC{ax}", int(1e6 + k * 1e5), *([0.0] * 9))
+    (tmp_path / "rearm.bin").write_bytes(bytes(w.buf))
+    modes = read_log(tmp_path / "rearm.bin").modes
+    assert [(m.t, m.name, m.tracking) for m in modes] == [(1.0, "DISARMED", False), (2.0, "GUIDED", True),
+                                                          (3.0, "DISARMED", False), (4.0, "GUIDED", True)]
+
+
+def test_tiny_tlog_with_epoch_clock_is_a_tlog(tmp_path, capsys):
+    veh = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    path = tmp_path / "tiny.tlog"
+    w = TlogWriter(path)
+    w.write(veh.heartbeat_encode(2, 3, 1, 0, 3, 3).pack(veh), LINK_RECEIVED, 1_000_000)
+    w.write(veh.statustext_encode(6, b"ArduCopter V3.4.6").pack(veh), LINK_RECEIVED, 1_001_000)
+    w.close()
+    assert path.stat().st_size < 100
+    assert detect_format(path) == "tlog"
+    err = one_line_error(capsys, "score", path)
+    assert "has no LOCAL_POSITION_NED" in err and "3.4.6" in err and "SRn_POSITION" in err
+    assert "SET_MESSAGE_INTERVAL" in err  # named as what this version lacks
+
+
+def test_segments_skipped_are_listed(tmp_path, capsys):
+    rc = main(["score", str(write_other_tlog(tmp_path / "a.tlog")), "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0 and len(out["segments"]) == 1 and out["skipped_segments"] == []
+    assert out["segments"][0]["t_start_s"] > 10.0 - 1e-6  # from when it was airborne in GUIDED
+
+
+@pytest.mark.parametrize("writer", [write_bin, write_ulg, write_other_tlog])
+def test_ground_reference_kept_for_flights(tmp_path, capsys, writer):
+    assert main(["score", str(writer(tmp_path / "x.log")), "--json"]) == 0
+    seg = json.loads(capsys.readouterr().out)["segments"][0]
+    assert seg["figure8"]["laps_flown"] == pytest.approx(MISSION.laps, abs=0.05)
