@@ -33,7 +33,8 @@ def test_unwritable_plot_path_is_one_line(tmp_path, capsys):
 
 
 def _ground_bin(path, arm: bool, height: float):
-    """GUIDED chosen at t=5 s; armed at t=10 s if ``arm`` (else disarmed throughout); the vehicle follows a moving target ``height`` m up."""
+    """GUIDED chosen at t=5 s; armed at t=10 s if ``arm`` (else disarmed throughout); the vehicle follows a
+    moving target ``height`` m up."""
     w = DFWriter()
     w.define(120, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn")
     w.define(186, "ARM", "QBIBB", "TimeUS,ArmState,ArmChecks,Forced,Method")

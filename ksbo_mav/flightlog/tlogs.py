@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from ksbo_mav.errors import InputError
-from ksbo_mav.flightlog import advice, geo
+import ksbo_mav.flightlog.advice as advice
+import ksbo_mav.flightlog.geo as geo
 from ksbo_mav.flightlog.detect import open_log
 from ksbo_mav.flightlog.model import FlightLog, Marker, ModeChange, Track
 from ksbo_mav.flightlog.modes import PX4_AUTO_SUB, PX4_MAIN, ardupilot_mode, vehicle_from_type
