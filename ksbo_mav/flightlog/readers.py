@@ -20,6 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from ksbo_mav.errors import InputError
+from ksbo_mav.flightlog.advice import bin_no_position, parse_banner, set_version
+from ksbo_mav.flightlog.bin_sources import WANTED as SOURCES
+from ksbo_mav.flightlog.bin_sources import position_tracks
 from ksbo_mav.flightlog.dataflash import read_dataflash
 from ksbo_mav.flightlog.detect import detect_format
 from ksbo_mav.flightlog.model import FlightLog, Marker, ModeChange, Track
@@ -38,7 +41,7 @@ def read_log(path: str | Path, partial: bool = False) -> FlightLog:
 
 
 # --- ArduPilot DataFlash ------------------------------------------------------------------------------------------
-BIN_WANTED = {"PSCN", "PSCE", "PSCD", "GUIP", "MODE", "MSG", "PARM", "ARM", "EV"}
+BIN_WANTED = {"GUIP", "MODE", "MSG", "PARM", "ARM", "EV"} | SOURCES
 EV_ARMED, EV_DISARMED = 10, 11  # DataFlash EV ids (logs without ARM messages)
 
 
@@ -78,30 +81,20 @@ def read_bin(p: Path, partial: bool = False) -> FlightLog:
     c = read_dataflash(p, BIN_WANTED)
     banner = _banner(c)
     vehicle = vehicle_from_text(banner) or "copter"
-    have = {k for k in ("PSCN", "PSCE", "PSCD") if k in c.data and len(c.data[k])}
     params = _bin_params(c)
-    if have != {"PSCN", "PSCE", "PSCD"}:
-        missing = ", ".join(sorted({"PSCN", "PSCE", "PSCD"} - have))
-        bitmask = params.get("LOG_BITMASK")
-        if bitmask is not None and not int(bitmask) & (1 << NTUN_BIT):
-            why = (f"position-controller logging is off: LOG_BITMASK = {int(bitmask)} lacks bit {NTUN_BIT} "
-                   f"(NTUN, value {1 << NTUN_BIT}); set LOG_BITMASK = {int(bitmask) | (1 << NTUN_BIT)} and fly again")
-        elif bitmask is None:
-            why = (f"no PARM LOG_BITMASK in the log either; PSCN/PSCE/PSCD are logged under LOG_BITMASK bit "
-                   f"{NTUN_BIT} (NTUN) in GUIDED/AUTO/LOITER")
-        else:
-            why = (f"LOG_BITMASK = {int(bitmask)} has bit {NTUN_BIT} (NTUN) set, so the vehicle never flew a "
-                   f"position-controlled mode while logging")
-        if c.truncated and c.messages < 100:
-            raise InputError(f"DataFlash log {p} is truncated: it ends inside message {c.messages + 1} at offset "
-                             f"{c.end} of {c.size} bytes, before any position-controller data")
-        raise InputError(f"DataFlash log {p} has no position-controller messages ({missing}): {why}")
-    n = min(len(c.data[k]) for k in ("PSCN", "PSCE", "PSCD"))
-    t = c.data["PSCN"]["TimeUS"][:n].astype(float) * 1e-6
-    cols = lambda pre: np.column_stack([c.column(m, f"{pre}{ax}")[:n]  # noqa: E731
-                                        for m, ax in (("PSCN", "N"), ("PSCE", "E"), ("PSCD", "D"))])
-    actual = Track(t, cols("P"), cols("V"), "PSCN/PSCE/PSCD P* (EKF position)")
-    target = Track(t, cols("TP"), cols("TV"), "PSCN/PSCE/PSCD TP* (position controller target)")
+    info = {"bytes": c.size, "messages": c.messages, "params": params, "end_offset": c.end, "vehicle": vehicle}
+    if (b := parse_banner(banner)) is not None:
+        set_version(info, *b)
+    tracks = position_tracks(c)
+    if tracks is None:
+        if c.messages < 100 and (c.truncated or c.extra["skipped"]):
+            raise InputError(f"DataFlash log {p} is truncated or damaged: {c.messages} message(s) readable of "
+                             f"{c.size} bytes, none from the position controller")
+        raise InputError(f"DataFlash log {p} has no position-controller messages: "
+                         + bin_no_position(info, params, bin_modes(c, vehicle)))
+    actual, target, used = tracks
+    t = actual.t
+    n = len(t)
     commanded = None
     if "GUIP" in c.data and len(c.data["GUIP"]):
         g = c.data["GUIP"]
@@ -122,10 +115,11 @@ def read_bin(p: Path, partial: bool = False) -> FlightLog:
             if text.startswith("ksbo "):
                 markers.append(Marker(float(row["TimeUS"]) * 1e-6, text))
     log = FlightLog(p, "bin", "ardupilot", actual, target, commanded, modes, markers,
-                    info={"bytes": c.size, "messages": c.messages, "pscn": n, "params": params,
+                    info={**info, "pscn": n, "source": used,
                           "param_changes": [(float(r["TimeUS"]) * 1e-6, r["Name"].split(b"\0", 1)[0].decode(
                               "ascii", "replace"), float(r["Value"])) for r in c.data.get("PARM", ())],
                           "end_offset": c.end})
+    log.skipped = c.extra["skipped"]
     if c.truncated:
         log.truncated_at = float(t[-1]) if n else None
         log.info["truncated"] = f"ends inside a message at offset {c.end} of {c.size}"

@@ -11,6 +11,8 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass, field
 
+from ksbo_mav.flightlog.model import Skipped
+
 _DAY_US = 86_400 * 10**6
 
 
@@ -62,22 +64,6 @@ def first_record(buf, n: int, limit: int = 1 << 16) -> int | None:
                     return s - 8
         s += 1
     return None
-
-
-@dataclass
-class Skipped:
-    offset: int  # first byte skipped
-    nbytes: int
-    t_before: float | None = None  # vehicle time (s) of the last sample before the damage
-    t_after: float | None = None  # ... and of the first after it
-
-    def describe(self) -> str:
-        when = ""
-        if self.t_before is not None or self.t_after is not None:
-            a = "start" if self.t_before is None else f"{self.t_before:.1f}"
-            b = "end" if self.t_after is None else f"{self.t_after:.1f}"
-            when = f", t={a}..{b} s"
-        return f"{self.nbytes} bytes at offset {self.offset}{when}"
 
 
 @dataclass
