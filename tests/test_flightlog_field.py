@@ -109,3 +109,57 @@ def test_ground_reference_kept_for_flights(tmp_path, capsys, writer):
     assert main(["score", str(writer(tmp_path / "x.log")), "--json"]) == 0
     seg = json.loads(capsys.readouterr().out)["segments"][0]
     assert seg["figure8"]["laps_flown"] == pytest.approx(MISSION.laps, abs=0.05)
+
+
+WRITERS = {"tlog": write_other_tlog, "bin": write_bin, "ulg": write_ulg}
+
+
+def _inserted(good: bytes, at: float) -> bytes:
+    i = int(len(good) * at)
+    return good[:i] + bytes(range(100, 164)) + good[i:]  # 64 bytes of garbage
+
+
+@pytest.mark.parametrize("fmt", sorted(WRITERS))
+def test_damage_inside_a_segment_same_partial_semantics(tmp_path, capsys, fmt):
+    good = WRITERS[fmt](tmp_path / f"good.{fmt}").read_bytes()
+    bad = tmp_path / f"bad.{fmt}"
+    bad.write_bytes(_inserted(good, 0.5))
+    err = one_line_error(capsys, "score", bad)  # without --partial: the damaged segment is refused, one line
+    assert "segment 1" in err and "damaged bytes skipped at offset" in err and "--partial" in err
+    assert main(["score", str(bad), "--partial", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    (span,) = out["damaged_spans"]
+    assert 64 <= span["nbytes"] < 64 + 200 and span["t_before"] is not None and span["t_after"] is not None
+    assert 10.0 < span["t_before"] <= span["t_after"] < 62.0
+    assert any("incomplete" in w for w in out["warnings"]) and out["segments"][0]["figure8"]
+
+
+@pytest.mark.parametrize("fmt", sorted(WRITERS))
+def test_damage_outside_segments_is_skipped_and_reported(tmp_path, capsys, fmt):
+    good = WRITERS[fmt](tmp_path / f"good.{fmt}").read_bytes()
+    bad = tmp_path / f"bad.{fmt}"
+    bad.write_bytes(_inserted(good, 0.98))  # after landing
+    assert main(["score", str(bad), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["damaged_spans"]) == 1 and any("skipped 1 damaged span" in w for w in out["warnings"])
+    assert out["segments"][0]["figure8"]["score"]["P"] is not None
+
+
+@pytest.mark.parametrize("fmt,cut", [("tlog", 5), ("tlog", 1024), ("bin", 50)])
+def test_recording_that_starts_mid_stream(tmp_path, capsys, fmt, cut):
+    """The first bytes are not a record start (a tlog cut mid-frame; a DataFlash log whose first FMT is cut):
+    the reader finds the first good record and reports what it skipped."""
+    good = WRITERS[fmt](tmp_path / f"good.{fmt}").read_bytes()
+    bad = tmp_path / f"mid.{fmt}"
+    bad.write_bytes(good[cut:])
+    assert detect_format(bad) == fmt
+    assert main(["score", str(bad), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["damaged_spans"][0]["offset"] == 0 and out["segments"]
+
+
+def test_ulog_head_cut_is_one_line(tmp_path, capsys):
+    good = write_ulg(tmp_path / "good.ulg").read_bytes()
+    (tmp_path / "mid.ulg").write_bytes(good[1024:])
+    err = one_line_error(capsys, "score", tmp_path / "mid.ulg")
+    assert "not a flight log" in err  # the ULog header and definitions are gone: nothing can be decoded

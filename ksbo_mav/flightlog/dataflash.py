@@ -101,6 +101,7 @@ def _walk(fh, size: int, wanted: set[str], p: Path) -> DFContents:
     n_msgs = 0
     skipped: list[Skipped] = []
     damage: Skipped | None = None  # a damaged span being skipped (its end not found yet)
+    timeless: Skipped | None = None  # the last span, while no timed message has followed it
     last_t: float | None = None  # TimeUS of the last good message before the current chunk
     buf, pos, base, last = b"", 0, 0, -1
     while True:
@@ -124,6 +125,7 @@ def _walk(fh, size: int, wanted: set[str], p: Path) -> DFContents:
                 damage.nbytes = base + pos - damage.offset
                 damage.t_after = _time_of(buf, pos, names, formats)
                 skipped.append(damage)
+                timeless = damage if damage.t_after is None else None
                 damage = None
                 continue
             typ = buf[pos + 2]
@@ -137,6 +139,8 @@ def _walk(fh, size: int, wanted: set[str], p: Path) -> DFContents:
                 damage = None
             counts[typ] += 1
             n_msgs += 1
+            if timeless is not None and (tt := _time_of(buf, pos, names, formats)) is not None:
+                timeless.t_after, timeless = tt, None  # the first timed message after a span
             if typ == FMT_TYPE:
                 f = _parse_fmt(buf[pos + 3:end], p, base + pos)
                 if f is not None and f.length >= 3:

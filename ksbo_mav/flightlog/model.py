@@ -120,6 +120,7 @@ class Skipped:
     nbytes: int
     t_before: float | None = None  # vehicle time (s) of the last sample before the damage
     t_after: float | None = None  # ... and of the first after it
+    why: str = ""  # what was wrong where the damage starts, when the reader can tell
 
     def describe(self) -> str:
         when = ""
@@ -127,4 +128,5 @@ class Skipped:
             a = "start" if self.t_before is None else f"{self.t_before:.1f}"
             b = "end" if self.t_after is None else f"{self.t_after:.1f}"
             when = f", t={a}..{b} s"
-        return f"{self.nbytes} damaged bytes skipped at offset {self.offset}{when}"
+        why = f" ({self.why})" if self.why else ""
+        return f"{self.nbytes} damaged bytes skipped at offset {self.offset}{when}{why}"

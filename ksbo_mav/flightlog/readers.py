@@ -6,7 +6,7 @@
   station sends as ``SRC=sys/comp:text``).
 * ``.ulg`` (PX4): ``vehicle_local_position`` (actual), ``vehicle_local_position_setpoint`` (the position
   controller's target), ``trajectory_setpoint`` (what offboard/auto asked for), ``vehicle_status.nav_state`` for
-  modes (armed only); read with pyulog, filtered to those topics.
+  modes (armed only); read by .ulog_records, filtered to those topics.
 * ``.tlog`` (any ground station): the vehicle's LOCAL_POSITION_NED; its POSITION_TARGET_LOCAL_NED when streamed
   (the autopilot's target), else the SET_POSITION_TARGET_LOCAL_NED a ground station sent; modes from the
   vehicle's HEARTBEATs; ksbo trial markers from STATUSTEXT. Streamed: records are framed from an mmap and only
