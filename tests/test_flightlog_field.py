@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 
 from flightlog_helpers import MISSION, DFWriter, write_bin, write_other_tlog, write_ulg
@@ -163,3 +164,140 @@ def test_ulog_head_cut_is_one_line(tmp_path, capsys):
     (tmp_path / "mid.ulg").write_bytes(good[1024:])
     err = one_line_error(capsys, "score", tmp_path / "mid.ulg")
     assert "not a flight log" in err  # the ULog header and definitions are gone: nothing can be decoded
+
+
+# --- targets the log has, whatever the message set --------------------------------------------------------------
+LAT0, LON0, ALT0 = 47.397742, 8.545594, 488.0  # origin of the synthetic flights (deg, deg, m AMSL)
+
+
+def _global_tlog(path, origin_msg: bool):
+    """ArduPilot's default streams: LOCAL_POSITION_NED, GLOBAL_POSITION_INT and POSITION_TARGET_GLOBAL_INT
+    (frame GLOBAL_INT, altitude AMSL), no local targets; GPS_GLOBAL_ORIGIN if ``origin_msg``."""
+    from flightlog_helpers import T_DISARM, T_GUIDED, T_LAND, error, on_ground, target
+
+    from ksbo_mav.flightlog.geo import R_EARTH
+
+    veh = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    w = TlogWriter(path)
+    usec = [1_700_000_000_000_000]
+
+    def put(msg):
+        usec[0] += 1000
+        w.write(msg.pack(veh), LINK_RECEIVED, usec[0])
+
+    def to_global(p):
+        lat = LAT0 + math.degrees(p[0] / R_EARTH)
+        lon = LON0 + math.degrees(p[1] / (R_EARTH * math.cos(math.radians(LAT0))))
+        return int(round(lat * 1e7)), int(round(lon * 1e7)), ALT0 - p[2]
+
+    put(veh.statustext_encode(6, b"ArduCopter V4.5.7 (2a3dc4b7)"))
+    if origin_msg:
+        put(veh.gps_global_origin_encode(int(LAT0 * 1e7), int(LON0 * 1e7), int(ALT0 * 1000)))
+    k, t = 0, 1.0
+    while t < T_DISARM:
+        ms = int(round(t * 1000))
+        if k % 50 == 0:
+            mode = 4 if T_GUIDED <= t < T_LAND else (9 if t >= T_LAND else 0)
+            put(veh.heartbeat_encode(2, 3, 128 | 1 if t >= 5 else 1, mode, 4, 3))
+        p, v = target(t)
+        a = p + error([t])[0] if t >= T_GUIDED else on_ground(p)
+        put(veh.local_position_ned_encode(ms, *a, *v))
+        if k % 5 == 0:
+            la, lo, alt = to_global(a)
+            put(veh.global_position_int_encode(ms, la, lo, int(alt * 1000), int(-a[2] * 1000), 0, 0, 0, 0))
+        if k % 5 == 2 and T_GUIDED <= t < T_LAND:
+            la, lo, alt = to_global(p)
+            put(veh.position_target_global_int_encode(ms, 5, 0b110111000000, la, lo, alt, *v, 0, 0, 0, 0, 0))
+        k += 1
+        t = 1.0 + k * 0.02
+    w.close()
+    return path
+
+
+@pytest.mark.parametrize("origin_msg", [True, False])
+def test_global_targets_converted_with_the_logs_origin(tmp_path, capsys, origin_msg):
+    from flightlog_helpers import EV, H_RMS
+
+    assert main(["score", str(_global_tlog(tmp_path / "g.tlog", origin_msg)), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert "POSITION_TARGET_GLOBAL_INT" in out["target_source"]
+    assert ("GPS_GLOBAL_ORIGIN" if origin_msg else "pairs") in out["target_source"]
+    f8 = out["segments"][0]["figure8"]
+    lap = f8["laps"][1]["vs_target"]
+    assert lap["h_rms_m"] == pytest.approx(H_RMS, rel=0.05) and lap["v_rms_m"] == pytest.approx(EV, abs=0.01)
+
+
+def _old_bin(path, msgs: str, banner: str, psc: bool = True):
+    """A Copter 3.x (NTUN in cm + CTUN) or 4.0 (PSC in m + CTUN) DataFlash log, EV for arming, the figure-8."""
+    from flightlog_helpers import T_DISARM, T_GUIDED, T_LAND, error, target
+
+    w = DFWriter()
+    w.define(32, "PARM", "QNf", "TimeUS,Name,Value")
+    w.define(120, "MODE", "QMB", "TimeUS,Mode,ModeNum")
+    w.define(59, "MSG", "QZ", "TimeUS,Message")
+    w.define(25, "EV", "QB", "TimeUS,Id")
+    w.define(11, "CTUN", "Qfffffffh", "TimeUS,ThI,ThO,DAlt,Alt,BAlt,DSAlt,SAlt,CRt")
+    if msgs == "NTUN":
+        w.define(12, "NTUN", "Qffffffffff", "TimeUS,DPosX,DPosY,PosX,PosY,DVelX,DVelY,VelX,VelY,DAccX,DAccY")
+    else:
+        w.define(12, "PSC", "Qffffffffffff", "TimeUS,TPX,TPY,PX,PY,TVX,TVY,VX,VY,TAX,TAY,AX,AY")
+    us = lambda t: int(round(t * 1e6))  # noqa: E731
+    w.msg("MSG", us(0.5), banner)
+    w.msg("PARM", us(0.5), "LOG_BITMASK", 830.0)
+    w.msg("MODE", us(1.0), 0, 0)
+    w.msg("EV", us(5.0), 10)
+    w.msg("MODE", us(T_GUIDED), 4, 4)
+    w.msg("MODE", us(T_LAND), 9, 9)
+    w.msg("EV", us(T_DISARM), 11)
+    for k in range(int((T_DISARM - 1.0) / 0.1)):
+        t = 1.0 + k * 0.1
+        p, v = target(t)
+        a = p + error([t])[0] if t >= T_GUIDED else np.array([p[0], p[1], 0.0])
+        w.msg("CTUN", us(t), 0.0, 0.4, -p[2], -a[2], 0.0, 0.0, 0.0, int(-v[2] * 100))
+        if psc and T_GUIDED <= t <= T_LAND:
+            s = 100.0 if msgs == "NTUN" else 1.0
+            row = (p[0] * s, p[1] * s, a[0] * s, a[1] * s, v[0] * s, v[1] * s, v[0] * s, v[1] * s, 0.0, 0.0)
+            w.msg(msgs, us(t), *(row if msgs == "NTUN" else row + (0.0, 0.0)))
+    path.write_bytes(bytes(w.buf))
+    return path
+
+
+@pytest.mark.parametrize("msgs,banner", [("NTUN", "APM:Copter V3.6.12 (0fb0b7e3)"),
+                                         ("PSC", "ArduCopter V4.0.7 (0bb18a15)")])
+def test_older_message_sets_are_scored(tmp_path, capsys, msgs, banner):
+    from flightlog_helpers import EV, H_RMS
+
+    assert main(["score", str(_old_bin(tmp_path / "old.bin", msgs, banner)), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert msgs in out["target_source"] and "CTUN" in out["target_source"]
+    assert out["version"].endswith(banner.split(" V")[1].split(" ")[0])
+    (seg,) = out["segments"]
+    assert seg["mode"] == "GUIDED"
+    lap = seg["figure8"]["laps"][1]["vs_target"]
+    assert lap["h_rms_m"] == pytest.approx(H_RMS, rel=0.05) and lap["v_rms_m"] == pytest.approx(EV, rel=0.05)
+
+
+def test_old_log_without_position_messages_gets_this_versions_remedy(tmp_path, capsys):
+    path = _old_bin(tmp_path / "nopsc.bin", "PSC", "APM:Copter V3.7.0 (1234abcd)", psc=False)
+    err = one_line_error(capsys, "score", path)
+    assert "ArduCopter 3.7.0 found" in err and "PSC and CTUN" in err and "GUIDED was flown" in err
+    assert "never flew" not in err
+
+
+def test_ulog_flown_only_manual_is_not_told_to_change_the_profile(tmp_path, capsys):
+    import struct
+
+    out = bytearray(b"ULog\x01\x12\x35\x01" + struct.pack("<Q", 0))
+    rec = lambda t, p: struct.pack("<HB", len(p), t[0]) + p  # noqa: E731
+    out += rec(b"F", b"vehicle_local_position:uint64_t timestamp;float x;float y;float z;float vx;float vy;float vz;")
+    out += rec(b"F", b"vehicle_status:uint64_t timestamp;uint8_t nav_state;uint8_t arming_state;")
+    out += rec(b"A", struct.pack("<BH", 0, 0) + b"vehicle_local_position")
+    out += rec(b"A", struct.pack("<BH", 0, 1) + b"vehicle_status")
+    for k in range(500):
+        t = int(1e6 + k * 2e4)
+        if k % 50 == 0:
+            out += rec(b"D", struct.pack("<HQBB", 1, t, 15 if k > 100 else 0, 2))  # MANUAL, then STAB
+        out += rec(b"D", struct.pack("<HQ6f", 0, t, 0.0, 0.0, -2.0, 0.0, 0.0, 0.0))
+    (tmp_path / "manual.ulg").write_bytes(bytes(out))
+    err = one_line_error(capsys, "score", tmp_path / "manual.ulg")
+    assert "flown only in MANUAL, STAB" in err and "whatever SDLOG_PROFILE is" in err

@@ -70,7 +70,7 @@ def tlog_no_targets(info: dict[str, Any], autopilot: str, modes: list) -> str:
 
 def bin_no_position(info: dict[str, Any], params: dict[str, float], modes: list) -> str:
     ver = info.get("version_tuple")
-    if ver and ver[:2] < (4, 0):
+    if ver and ver[:2] < (3, 7):
         need = "NTUN and CTUN"
     elif ver and ver[:2] < (4, 2):
         need = "PSC and CTUN (or PSCZ)"
