@@ -37,7 +37,13 @@ NTUN_BIT = 5
 def read_log(path: str | Path, partial: bool = False) -> FlightLog:
     """Read any supported log (format detected by content)."""
     fmt = detect_format(path)
-    return {"bin": read_bin, "ulg": read_ulg, "tlog": read_any_tlog}[fmt](Path(path), partial=partial)
+    try:
+        return {"bin": read_bin, "ulg": read_ulg, "tlog": read_any_tlog}[fmt](Path(path), partial=partial)
+    except InputError:
+        raise
+    except (ValueError, IndexError, KeyError, TypeError, OverflowError) as exc:  # damage in a definition itself
+        raise InputError(f"{path} is damaged where the reader cannot skip it (a format definition): "
+                         f"{type(exc).__name__}: {exc}") from None
 
 
 # --- ArduPilot DataFlash ------------------------------------------------------------------------------------------
