@@ -301,3 +301,59 @@ def test_ulog_flown_only_manual_is_not_told_to_change_the_profile(tmp_path, caps
     (tmp_path / "manual.ulg").write_bytes(bytes(out))
     err = one_line_error(capsys, "score", tmp_path / "manual.ulg")
     assert "flown only in MANUAL, STAB" in err and "whatever SDLOG_PROFILE is" in err
+
+
+def _oscillating_bin(path, hz: float, amp: float, param_change_at: float | None = None):
+    """GUIDED, airborne at 10 m, a target moving north at 1 m/s; the vehicle follows it with an ``amp`` m
+    oscillation at ``hz`` east; optionally PSC_POSXY_P changed in flight."""
+    w = DFWriter()
+    w.define(32, "PARM", "QNf", "TimeUS,Name,Value")
+    w.define(120, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn")
+    for i, ax in enumerate("NED"):
+        w.define(200 + i, f"PSC{ax}", "Qfffffffff",
+                 f"TimeUS,DP{ax},TP{ax},P{ax},DV{ax},TV{ax},V{ax},DA{ax},TA{ax},A{ax}")
+    us = lambda t: int(round(t * 1e6))  # noqa: E731
+    w.msg("PARM", us(0.5), "PSC_POSXY_P", 1.0)
+    w.msg("MODE", us(1.0), 4, 4, 1)
+    for k in range(int(60 / 0.05)):
+        t = 1.0 + k * 0.05
+        if param_change_at is not None and abs(t - param_change_at) < 1e-9:
+            w.msg("PARM", us(t), "PSC_POSXY_P", 1.5)
+        tp = (t - 1.0, 0.0, -10.0)
+        a = (tp[0], amp * math.sin(2 * math.pi * hz * t), -10.0)
+        for i, ax in enumerate("NED"):
+            w.msg(f"PSC{ax}", us(t), tp[i], tp[i], a[i], 0.0, 1.0 if i == 0 else 0.0, 0.0, 0.0, 0.0, 0.0)
+    w.msg("MODE", us(61.5), 9, 9, 1)
+    path.write_bytes(bytes(w.buf))
+    return path
+
+
+def test_error_spectrum_shows_an_oscillation(tmp_path, capsys):
+    assert main(["score", str(_oscillating_bin(tmp_path / "osc.bin", 1.2, 0.1)), "--json"]) == 0
+    sp = json.loads(capsys.readouterr().out)["segments"][0]["spectrum"]
+    assert sp["fs_hz"] == pytest.approx(20.0) and sp["peak_hz"] == pytest.approx(1.2, abs=0.03)
+    assert sp["peak_amp_m"] == pytest.approx(0.1, rel=0.15)
+
+
+def test_segment_split_where_a_tuned_parameter_changed(tmp_path, capsys):
+    path = _oscillating_bin(tmp_path / "split.bin", 0.5, 0.05, param_change_at=31.0)
+    assert main(["score", str(path), "--json"]) == 0
+    segs = json.loads(capsys.readouterr().out)["segments"]
+    assert [round(s["t_start_s"], 1) for s in segs] == [1.0, 31.0]
+    assert segs[1]["note"] == "PSC_POSXY_P 1 -> 1.5"
+
+
+def test_too_little_motion_is_refused_with_the_reason(tmp_path, capsys):
+    w = DFWriter()
+    w.define(120, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn")
+    for i, ax in enumerate("NED"):
+        w.define(200 + i, f"PSC{ax}", "Qfffffffff",
+                 f"TimeUS,DP{ax},TP{ax},P{ax},DV{ax},TV{ax},V{ax},DA{ax},TA{ax},A{ax}")
+    w.msg("MODE", 1_000_000, 4, 4, 1)
+    for k in range(300):
+        for i, ax in enumerate("NED"):
+            w.msg(f"PSC{ax}", 1_000_000 + k * 100_000, *([-10.0 if i == 2 else 0.1 * (k % 2)] * 9))
+    w.msg("MODE", 31_000_000, 9, 9, 1)
+    (tmp_path / "hover.bin").write_bytes(bytes(w.buf))
+    err = one_line_error(capsys, "score", tmp_path / "hover.bin")
+    assert "too little motion to judge" in err and "target moved 0.10 m" in err

@@ -26,6 +26,7 @@ from ksbo_mav.errors import InputError
 from ksbo_mav.flightlog.figure8 import Fit, _ref_marker, recognise_figure8, recognise_figure8s, reference  # noqa: F401
 from ksbo_mav.flightlog.model import FlightLog, Segment
 from ksbo_mav.flightlog.segments import find_segments as _find
+from ksbo_mav.flightlog.spectrum import error_spectrum, summary
 
 
 
@@ -147,7 +148,8 @@ def analyse(log: FlightLog, mission=None, profile_name: str | None = None, parti
         t, e = vs_target(log, seg.t_start, seg.t_end + 1e-9)
         entry: dict[str, Any] = {"segment": seg.index, "mode": seg.mode, "t_start_s": seg.t_start, "note": seg.note,
                                  "t_end_s": seg.t_end, "duration_s": seg.t_end - seg.t_start,
-                                 "vs_target": error_stats(e), "figure8": None}
+                                 "vs_target": error_stats(e), "figure8": None,
+                                 "spectrum": summary(error_spectrum(log, seg.t_start, seg.t_end))}
         entry["figure8s"] = [figure8_entry(log, fit, fit.mission, profile_name, rms_ref)
                              for fit in recognise_figure8s(log, seg, mission)]
         entry["figure8"] = entry["figure8s"][0] if entry["figure8s"] else None  # the first, for short reports
