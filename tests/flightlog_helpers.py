@@ -34,6 +34,11 @@ def target(t: float, laps: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
     return p, v
 
 
+def on_ground(p: np.ndarray) -> np.ndarray:
+    """Where the vehicle sits before take-off: below the hold point, on the ground (D = 0)."""
+    return np.array([p[0], p[1], 0.0])
+
+
 # expected lap statistics of the error above (one full period of cos/sin)
 H_RMS = math.sqrt((EH[0] ** 2 + EH[1] ** 2) / 2)
 
@@ -126,7 +131,7 @@ def write_other_tlog(path: Path, laps: float = 2.0, sent: bool = True, err_scale
             mode = 4 if T_GUIDED <= t < T_LAND else (9 if t >= T_LAND else 0)
             put(veh, veh.heartbeat_encode(2, 3, 128 | 1 if t >= 5 else 1, mode, 4, 3), LINK_RECEIVED)
         p, v = target(t, laps)
-        a = p + error([t], err_scale)[0]
+        a = p + error([t], err_scale)[0] if t >= T_GUIDED else on_ground(p)
         put(veh, veh.local_position_ned_encode(ms, *a, *v), LINK_RECEIVED)
         if sent and T_GUIDED <= t < T_LAND:
             put(gcs, gcs.set_position_target_local_ned_encode(ms, 1, 1, 1, MASK_POS_VEL_ACC, *p, *v, 0, 0, 0, 0, 0),
@@ -176,7 +181,7 @@ def write_ulg(path: Path, laps: float = 2.0, err_scale: float = 1.0, topics=tupl
             data("vehicle_status", us(t), nav, arm)
             state = (nav, arm)
         p, v = target(t, laps)
-        a = p + error([t], err_scale)[0]
+        a = p + error([t], err_scale)[0] if t >= T_GUIDED else on_ground(p)
         data("vehicle_local_position", us(t), *a, *v)
         if k % 5 == 0 and T_GUIDED <= t < T_LAND:
             data("vehicle_local_position_setpoint", us(t), *p, *v)

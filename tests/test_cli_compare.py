@@ -42,3 +42,20 @@ def test_compare_reports_bad_input_in_one_line(tmp_path, capsys):
     rc = main(["compare", str(a), str(tmp_path / "e.ulg")])
     err = capsys.readouterr().err
     assert rc == 2 and err.startswith("error: ") and "is empty" in err
+
+
+def test_compare_lines_segments_up(tmp_path, capsys):
+    """Two logs split where PSC_POSXY_P changed: segment 1 beside segment 1, 2 beside 2."""
+    from test_flightlog_field import _oscillating_bin
+
+    a = _oscillating_bin(tmp_path / "a.bin", 1.2, 0.1, param_change_at=31.0)
+    b = _oscillating_bin(tmp_path / "b.bin", 0.8, 0.05, param_change_at=31.0)
+    rc = main(["compare", str(a), str(b), "--json"])
+    rows = json.loads(capsys.readouterr().out)["by_segment"]
+    assert rc == 0 and [r["pair"] for r in rows] == [1, 2]
+    for r in rows:
+        assert r["a"]["spectrum_peak_hz"] == pytest.approx(1.2, abs=0.05)
+        assert r["b"]["spectrum_peak_hz"] == pytest.approx(0.8, abs=0.05)
+        assert r["b"]["h_rms_m"] == pytest.approx(r["a"]["h_rms_m"] / 2, rel=0.1)
+    assert main(["compare", str(a), str(b)]) == 0
+    assert "segment by segment" in capsys.readouterr().out

@@ -133,7 +133,9 @@ def test_px4_ulg_and_client_tlog_agree(px4_sitl, tmp_path, capsys):
     (tmp_path / "bad.ulg").write_bytes(bytes(data))
     rc = main(["score", str(tmp_path / "bad.ulg")])
     out, err = capsys.readouterr()
-    assert rc == 2 and out == "" and err.startswith("error: ") and "is corrupted at offset" in err
+    assert rc == 2 and out == "" and err.startswith("error: ") and "damaged bytes skipped at offset" in err
+    assert main(["score", str(tmp_path / "bad.ulg"), "--partial"]) == 0  # the rest of the flight still read
+    assert "skipped 1 damaged span" in capsys.readouterr().out
 
 
 # --- a tuning campaign's trials: onboard log vs live score --------------------------------------------------------

@@ -15,8 +15,8 @@ from ksbo_mav.errors import KsboError
 from ksbo_sim.errors import SimError
 
 #: Command modules, in the order `--help` lists them.
-COMMANDS: tuple[str, ...] = ("evaluate", "sim", "prior", "select", "tune", "report", "score", "compare", "restore",
-                             "accept", "demo")
+COMMANDS: tuple[str, ...] = ("evaluate", "sim", "prior", "select", "tune", "report", "score", "compare", "check",
+                             "restore", "accept", "demo")
 
 
 def build_parser() -> argparse.ArgumentParser:

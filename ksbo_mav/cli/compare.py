@@ -51,12 +51,46 @@ def _rows(sa: dict[str, Any], sb: dict[str, Any]) -> list[tuple[str, Any, Any]]:
     return rows
 
 
+def by_segment(ra: dict[str, Any], rb: dict[str, Any]) -> list[dict[str, Any]]:
+    """The two logs' segments lined up in order (segment k of A beside segment k of B)."""
+    sa, sb = ra["segments"], rb["segments"]
+    out = []
+    for k in range(max(len(sa), len(sb))):
+        a = sa[k] if k < len(sa) else None
+        b = sb[k] if k < len(sb) else None
+        row: dict[str, Any] = {"pair": k + 1}
+        for side, s in (("a", a), ("b", b)):
+            row[side] = None if s is None else {
+                "segment": s["segment"], "mode": s["mode"], "duration_s": s["duration_s"],
+                "h_rms_m": s["vs_target"]["h_rms_m"], "v_rms_m": s["vs_target"]["v_rms_m"],
+                "spectrum_peak_hz": (s.get("spectrum") or {}).get("peak_hz"),
+                "P": (s["figure8"] or {}).get("score", {}).get("P") if s["figure8"] else None}
+        out.append(row)
+    return out
+
+
+def _by_segment_lines(rows: list[dict[str, Any]]) -> list[str]:
+    lines = ["segment by segment (vs target RMS h/v m, error spectrum peak):"]
+    for r in rows:
+        cells = []
+        for side in ("a", "b"):
+            s = r[side]
+            cells.append("-" if s is None else
+                         f"{side.upper()}{s['segment']} {s['mode']} {s['duration_s']:.0f} s h {s['h_rms_m']:.3f} "
+                         f"v {s['v_rms_m']:.3f}" + (f" peak {s['spectrum_peak_hz']:.2f} Hz"
+                                                    if s["spectrum_peak_hz"] is not None else ""))
+        lines.append(f"  {r['pair']}: {cells[0]}  |  {cells[1]}")
+    return lines
+
+
 def run(args: argparse.Namespace) -> int:
-    from ksbo_mav.cli.common import writable_output
     from ksbo_mav.errors import InputError
     from ksbo_mav.flightlog import score_file
 
-    writable_output(args.plot)
+    if args.plot:
+        from ksbo_mav.flightlog.plot import check_plot_path
+
+        check_plot_path(args.plot)
     ra, log_a, mission = score_file(args.a, args.profile, args.partial, args.segment_a)
     rb, log_b, _ = score_file(args.b, args.profile, args.partial, args.segment_b)
     both_f8 = any(s["figure8"] for s in ra["segments"]) and any(s["figure8"] for s in rb["segments"])
@@ -72,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
         plot_compare([(f"A: {args.a}", log_a, sa), (f"B: {args.b}", log_b, sb)], mission, args.plot)
     if args.json:
         print(to_json({"kind": kind, "a": {"log": args.a, "segment": sa}, "b": {"log": args.b, "segment": sb},
-                       "rows": [{"metric": m, "a": a, "b": b} for m, a, b in rows]}))
+                       "rows": [{"metric": m, "a": a, "b": b} for m, a, b in rows],
+                       "by_segment": by_segment(ra, rb)}))
         return 0
     if not rows:
         raise InputError("nothing to compare")
@@ -85,6 +120,8 @@ def run(args: argparse.Namespace) -> int:
         fb = "n/a" if b is None else f"{b:.4f}"
         d = "" if a is None or b is None else f"{b - a:+.4f}"
         print(f"  {m:<{w}}  {fa:>9}  {fb:>9}  {d:>9}")
+    if len(ra["segments"]) > 1 or len(rb["segments"]) > 1:
+        print("\n".join(_by_segment_lines(by_segment(ra, rb))))
     if args.plot:
         print(f"  plot: {args.plot}")
     return 0

@@ -53,9 +53,10 @@ def is_trial_tlog(path: str | Path) -> bool:
 def run(args: argparse.Namespace) -> int:
     from ksbo_mav.flightlog import detect_format, score_file
 
-    from ksbo_mav.cli.common import writable_output
+    if args.plot:
+        from ksbo_mav.flightlog.plot import check_plot_path
 
-    writable_output(args.plot)
+        check_plot_path(args.plot)
     fmt = detect_format(args.log)
     if fmt == "tlog" and is_trial_tlog(args.log):
         return _run_trial(args)
@@ -91,15 +92,24 @@ def format_result(r: dict[str, Any]) -> list[str]:
     from ksbo_mav.flightlog.detect import FORMATS
 
     mb = (r.get("bytes") or 0) / 1e6
-    lines = [f"{r['log']}: {FORMATS[r['format']]}, {r['autopilot']}, {mb:.1f} MB",
+    ver = f", {r['version']}" if r.get("version") else ""
+    lines = [f"{r['log']}: {FORMATS[r['format']]}, {r['autopilot']}{ver}, {mb:.1f} MB",
              f"  flown: {r['actual_source']}; target: {r['target_source']}"]
     for s in r["segments"]:
         lines.append(f"segment {s['segment']}: {s['mode']} t={s['t_start_s']:.1f}..{s['t_end_s']:.1f} s "
                      f"({s['duration_s']:.1f} s)  vs target (RMS/max m): {_stats(s['vs_target'])}")
+        sp = s.get("spectrum")
+        if sp:
+            lines.append(f"  error spectrum: horizontal peak {sp['peak_amp_m']:.3f} m at {sp['peak_hz']:.2f} Hz, "
+                         f"vertical {sp['peak_v_amp_m']:.3f} m at {sp['peak_v_hz']:.2f} Hz")
+        if s.get("note"):
+            lines.append(f"  starts where {s['note']}")
         if not s.get("figure8s"):
             lines.append("  no figure-8 of the profile's mission in this segment")
         for f8 in s.get("figure8s", []):
             lines.extend(_figure8_lines(f8))
+    for sk in r.get("skipped_segments", []):
+        lines.append(f"skipped {sk['mode']} t={sk['t_start_s']:.1f}..{sk['t_end_s']:.1f} s: {sk['reason']}")
     for w in r["warnings"]:
         lines.append(f"warning: {w}")
     return lines

@@ -25,48 +25,24 @@ import numpy as np
 from ksbo_mav.errors import InputError
 from ksbo_mav.flightlog.figure8 import Fit, _ref_marker, recognise_figure8, recognise_figure8s, reference  # noqa: F401
 from ksbo_mav.flightlog.model import FlightLog, Segment
+from ksbo_mav.flightlog.segments import find_segments as _find
+from ksbo_mav.flightlog.spectrum import error_spectrum, summary
 
-
-
-#: A segment whose position spans less than this (m, along every axis) was not flown: the vehicle sat on the
-#: ground in a tracking mode (chosen before arming, or armed and never lifted off). Its error against the target
-#: would read as perfect tracking.
-MIN_MOTION_M = 0.5
 
 
 def find_segments(log: FlightLog, min_duration: float = 2.0) -> list[Segment]:
-    """Tracking-mode stretches that hold at least a few target samples and in which the vehicle moved (at least
-    :data:`MIN_MOTION_M`); a stretch skipped for too little motion is named in ``log.warnings``. Without any mode
-    information (a tlog without HEARTBEATs) the whole stretch with targets counts as one segment."""
-    t_lo, t_hi = float(log.actual.t[0]), float(log.actual.t[-1])
-    if log.target is None or len(log.target) == 0:
-        return []
-    spans: list[tuple[float, float, str, bool]] = []
-    if not log.modes:
-        spans.append((float(log.target.t[0]), float(log.target.t[-1]), "unknown mode", True))
-    else:
-        for i, m in enumerate(log.modes):
-            if not m.tracking:
-                continue
-            end = log.modes[i + 1].t if i + 1 < len(log.modes) else math.inf
-            spans.append((m.t, end, m.name, i + 1 == len(log.modes)))
+    """The segments that count (see :mod:`ksbo_mav.flightlog.segments`)."""
+    return _find(log, min_duration)[0]
+
+
+def damage_in(log: FlightLog, seg: Segment) -> list[str]:
+    """Damaged spans the reader skipped that fall inside (or cannot be placed outside) a segment."""
     out = []
-    for a, b, name, last in spans:
-        a, b = max(a, t_lo), min(b, t_hi)
-        if b - a < min_duration:
-            continue
-        n = int(np.sum((log.target.t >= a) & (log.target.t <= b)))
-        if n < 10:
-            continue
-        inside = (log.actual.t >= a) & (log.actual.t <= b)
-        span = float(np.ptp(log.actual.pos[inside], axis=0).max()) if inside.sum() > 1 else 0.0
-        if span < MIN_MOTION_M:
-            msg = (f"skipped {name} from t={a:.1f} s to {b:.1f} s: the vehicle moved {span:.2f} m (less than "
-                   f"{MIN_MOTION_M:g} m: on the ground or not flown), too little motion to judge its tracking")
-            if msg not in log.warnings:
-                log.warnings.append(msg)
-            continue
-        out.append(Segment(len(out) + 1, a, b, name, last))
+    for sk in log.skipped:
+        a = -math.inf if sk.t_before is None else sk.t_before
+        b = math.inf if sk.t_after is None else sk.t_after
+        if a <= seg.t_end and b >= seg.t_start:
+            out.append(sk.describe())
     return out
 
 
@@ -126,45 +102,76 @@ def analyse(log: FlightLog, mission=None, profile_name: str | None = None, parti
             only: int | None = None, rms_ref: float | None = None) -> dict[str, Any]:
     """Every segment's scores as a JSON-friendly dict (see module doc). Raises :class:`InputError` when there is
     nothing to score, or when the log is cut inside a segment (unless ``partial``)."""
-    segs = find_segments(log)
+    segs, skipped = _find(log)
+    if log.skipped:
+        log.warnings.append(f"skipped {len(log.skipped)} damaged span(s): "
+                            + "; ".join(sk.describe() for sk in log.skipped[:5])
+                            + (f" (+{len(log.skipped) - 5} more)" if len(log.skipped) > 5 else ""))
     if not segs:
-        seen = ", ".join(dict.fromkeys(m.name for m in log.modes)) or "none logged"
-        what = "no position targets at all" if log.target is None else f"modes seen: {seen}"
-        still = [w for w in log.warnings if w.startswith("skipped ") and "too little motion" in w]
-        if still:
-            what += f"; {len(still)} tracking stretch(es) skipped: {still[0]}"
-        raise InputError(f"{log.path}: no segment where the vehicle tracked position targets in a guided/auto/"
-                         f"offboard mode ({what})")
+        raise InputError(f"{log.path}: " + no_segment_reason(log, skipped))
     if log.truncated_at is None and log.fmt in ("bin", "ulg") and segs[-1].open_end:
         # An onboard log closes after disarm; one that stops in a tracking mode was cut on a message boundary.
         log.truncated_at = float(log.actual.t[-1])
         log.info["truncated"] = (f"it stops at t={log.truncated_at:.1f} s in {segs[-1].mode}, before any mode "
                                  f"change or disarm")
-    if log.truncated_at is not None:
-        cut = [s for s in segs if s.open_end]
-        msg = f"{log.path} is truncated ({log.info.get('truncated', '')})"
-        if cut and not partial:
-            raise InputError(f"{msg}, inside segment {cut[-1].index} ({cut[-1].mode} from t={cut[-1].t_start:.1f} s)"
-                             f": its end is missing; pass --partial to score what is there")
-        log.warnings.append(msg + ("; the last segment is incomplete" if cut
-                                   else "; every segment ended before the cut"))
+    incomplete = {}
+    for seg in segs:
+        why = damage_in(log, seg)
+        if seg.open_end and log.truncated_at is not None:
+            why.append(f"the log is truncated ({log.info.get('truncated', '')})")
+        if why:
+            incomplete[seg.index] = "; ".join(why)
+    if log.truncated_at is not None and not any(s.open_end for s in segs):
+        log.warnings.append(f"{log.path} is truncated ({log.info.get('truncated', '')}); every segment ended "
+                            f"before the cut")
     if only is not None:
         if not 1 <= only <= len(segs):
             raise InputError(f"{log.path}: --segment {only} does not exist (segments 1..{len(segs)})")
         segs = [segs[only - 1]]
+    if incomplete and not partial:
+        keep = [s for s in segs if s.index not in incomplete]
+        for s in segs:
+            if s.index in incomplete:
+                skipped.append({"t_start_s": s.t_start, "t_end_s": s.t_end, "mode": s.mode,
+                                "reason": f"segment {s.index} is incomplete: {incomplete[s.index]}; --partial "
+                                          f"scores what is there"})
+        if not keep:
+            s = next(s for s in segs if s.index in incomplete)
+            raise InputError(f"{log.path}: segment {s.index} ({s.mode} from t={s.t_start:.1f} s) is incomplete: "
+                             f"{incomplete[s.index]}; pass --partial to score what is there")
+        segs = keep
+    for idx, why in incomplete.items():
+        if partial and any(s.index == idx for s in segs):
+            log.warnings.append(f"segment {idx} is incomplete ({why}): scored from what is there")
     out = []
     for seg in segs:
         t, e = vs_target(log, seg.t_start, seg.t_end + 1e-9)
-        entry: dict[str, Any] = {"segment": seg.index, "mode": seg.mode, "t_start_s": seg.t_start,
+        entry: dict[str, Any] = {"segment": seg.index, "mode": seg.mode, "t_start_s": seg.t_start, "note": seg.note,
                                  "t_end_s": seg.t_end, "duration_s": seg.t_end - seg.t_start,
-                                 "vs_target": error_stats(e), "figure8": None}
+                                 "vs_target": error_stats(e), "figure8": None,
+                                 "spectrum": summary(error_spectrum(log, seg.t_start, seg.t_end))}
         entry["figure8s"] = [figure8_entry(log, fit, fit.mission, profile_name, rms_ref)
                              for fit in recognise_figure8s(log, seg, mission)]
         entry["figure8"] = entry["figure8s"][0] if entry["figure8s"] else None  # the first, for short reports
         out.append(entry)
     return {"log": str(log.path), "format": log.fmt, "autopilot": log.autopilot,
             "actual_source": log.actual.label, "target_source": log.target.label if log.target else None,
-            "bytes": log.info.get("bytes"), "warnings": list(log.warnings), "segments": out}
+            "bytes": log.info.get("bytes"), "version": log.info.get("version"),
+            "skipped_segments": skipped, "damaged_spans": [vars(sk) for sk in log.skipped],
+            "warnings": list(log.warnings), "segments": out}
+
+
+def no_segment_reason(log: FlightLog, skipped: list[dict]) -> str:
+    """One line: why nothing in the log can be scored."""
+    if log.target is None:
+        return log.info.get("no_targets") or "no position targets in the log"
+    if skipped:
+        parts = [f"{s['mode']} t={s['t_start_s']:.1f}..{s['t_end_s']:.1f} s: {s['reason']}" for s in skipped[:3]]
+        more = f" (+{len(skipped) - 3} more)" if len(skipped) > 3 else ""
+        return "no segment to score; skipped " + "; ".join(parts) + more
+    seen = ", ".join(dict.fromkeys(m.name for m in log.modes)) or "none logged"
+    return (f"no segment where the vehicle tracked position targets in a guided/auto/offboard mode "
+            f"(modes seen: {seen})")
 
 
 def figure8_entry(log: FlightLog, fit: Fit, mission, profile_name: str | None,

@@ -7,9 +7,9 @@ copies only the bodies of the wanted types into one ``bytearray`` per type, deco
 structured arrays. Memory is one chunk plus the kept messages' raw size (PSCN/PSCE/PSCD at 10 Hz: ~150 kB per
 simulated minute), never the file's.
 
-Strict framing: a message that does not start with the header is corruption (error with the byte offset); a file
-that ends inside a message is cut, reported to the caller (``truncated_at``) so it can decide whether what was cut
-matters.
+Resynchronising: where a message does not start with the header (bytes inserted or overwritten, a head cut off)
+the walk scans for the next header that is followed by another and reports the span it skipped (bytes, and the
+TimeUS on either side); a file that ends inside a message is cut, reported to the caller (``truncated``).
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ import numpy as np
 
 from ksbo_mav.errors import InputError
 from ksbo_mav.flightlog.detect import open_log
+from ksbo_mav.flightlog.model import Skipped
 
 HEAD1, HEAD2, FMT_TYPE, FMT_LEN = 0xA3, 0x95, 0x80, 89
 # DataFlash format characters -> numpy dtype (little-endian) and the multiplier ArduPilot applies on read.
@@ -78,7 +79,7 @@ CHUNK = 8 << 20  # bytes read at a time: memory is bounded by this plus the kept
 
 
 def read_dataflash(path: str | Path, wanted: set[str]) -> DFContents:
-    """One streaming pass; raises :class:`InputError` on corruption (never on a cut end: see ``truncated``)."""
+    """One streaming pass; damaged spans are skipped and listed in ``extra["skipped"]``."""
     p = Path(path)
     fh, size = open_log(p)
     with fh:
@@ -86,7 +87,9 @@ def read_dataflash(path: str | Path, wanted: set[str]) -> DFContents:
 
 
 def _walk(fh, size: int, wanted: set[str], p: Path) -> DFContents:
-    """Walk the message chain chunk by chunk (``CHUNK`` bytes plus at most one message carried over)."""
+    """Walk the message chain chunk by chunk (``CHUNK`` bytes plus at most one message carried over). Where the
+    chain breaks (no header, a type without FMT), scan for the next header whose message is followed by another
+    (or the end of the file) and record the span skipped."""
     lengths = [0] * 256
     lengths[FMT_TYPE] = FMT_LEN
     names: dict[int, str] = {FMT_TYPE: "FMT"}
@@ -96,59 +99,117 @@ def _walk(fh, size: int, wanted: set[str], p: Path) -> DFContents:
     keep_at: list[bytearray | None] = [None] * 256  # the same buffers, indexed by type (hot loop)
     counts = [0] * 256
     n_msgs = 0
-    buf, pos, base = b"", 0, 0
+    skipped: list[Skipped] = []
+    damage: Skipped | None = None  # a damaged span being skipped (its end not found yet)
+    timeless: Skipped | None = None  # the last span, while no timed message has followed it
+    last_t: float | None = None  # TimeUS of the last good message before the current chunk
+    buf, pos, base, last = b"", 0, 0, -1
     while True:
         chunk = fh.read(CHUNK)
         eof = not chunk
+        if last >= 0:
+            last_t = _time_of(buf, last, names, formats) or last_t
         buf = buf[pos:] + chunk
         base += pos
-        pos, n = 0, len(buf)
+        pos, n, last = 0, len(buf), -1
         while n - pos >= 3:
-            if buf[pos] != HEAD1 or buf[pos + 1] != HEAD2:
-                raise InputError(f"DataFlash log {p} is corrupted at offset {base + pos}: no message header "
-                                 f"(0xA3 0x95) where message {n_msgs + 1} should start")
+            if buf[pos] != HEAD1 or buf[pos + 1] != HEAD2 or not lengths[buf[pos + 2]]:
+                if damage is None:
+                    t0 = _time_of(buf, last, names, formats) if last >= 0 else last_t
+                    damage = Skipped(base + pos, 0, t0)
+                nxt = _next_header(buf, pos + 1, n, lengths, eof)
+                if nxt is None:  # not in this chunk: keep its last bytes and read on
+                    pos = max(pos, n - 2 - 3 - 255) if not eof else n
+                    break
+                pos = nxt
+                damage.nbytes = base + pos - damage.offset
+                damage.t_after = _time_of(buf, pos, names, formats)
+                skipped.append(damage)
+                timeless = damage if damage.t_after is None else None
+                damage = None
+                continue
             typ = buf[pos + 2]
-            length = lengths[typ]
-            if not length:
-                raise InputError(f"DataFlash log {p} is corrupted at offset {base + pos}: message type {typ} has "
-                                 f"no FMT definition before it")
-            end = pos + length
+            end = pos + lengths[typ]
             if end > n:
                 break
+            if damage is not None:  # the span ended at a chunk boundary
+                damage.nbytes = base + pos - damage.offset
+                damage.t_after = _time_of(buf, pos, names, formats)
+                skipped.append(damage)
+                damage = None
             counts[typ] += 1
             n_msgs += 1
+            if timeless is not None and (tt := _time_of(buf, pos, names, formats)) is not None:
+                timeless.t_after, timeless = tt, None  # the first timed message after a span
             if typ == FMT_TYPE:
                 f = _parse_fmt(buf[pos + 3:end], p, base + pos)
-                if f.length < 3:
-                    raise InputError(f"DataFlash log {p} is corrupted at offset {base + pos}: FMT of {f.name} with "
-                                     f"length {f.length}")
-                lengths[f.type] = f.length
-                names[f.type] = f.name
-                formats[f.name] = f
-                if f.name in wanted and f.type not in keep:
-                    keep[f.type] = keep_at[f.type] = bytearray()
+                if f is not None and f.length >= 3:
+                    lengths[f.type] = f.length
+                    names[f.type] = f.name
+                    formats[f.name] = f
+                    if f.name in wanted and f.type not in keep:
+                        keep[f.type] = keep_at[f.type] = bytearray()
             else:
                 kept = keep_at[typ]
                 if kept is not None:
                     kept += buf[pos + 3:end]
+            last = pos
             pos = end
         if eof:
             break
+    if damage is not None:  # damage up to the end of the file
+        damage.nbytes = size - damage.offset
+        skipped.append(damage)
+        pos = n
     truncated = pos < n
     data: dict[str, np.ndarray] = {}
     for typ, kept in keep.items():
         f = formats[names[typ]]
-        data[f.name] = np.frombuffer(bytes(kept), dtype=f.dtype()) if kept else np.zeros(0, dtype=f.dtype())
+        try:
+            dt = f.dtype()
+        except InputError:
+            continue
+        usable = len(kept) - len(kept) % dt.itemsize
+        data[f.name] = np.frombuffer(bytes(kept[:usable]), dtype=dt)
     cnt = {names.get(t, str(t)): c for t, c in enumerate(counts) if c}
-    return DFContents(formats, data, cnt, size, base + pos, truncated, n_msgs)
+    return DFContents(formats, data, cnt, size, base + pos, truncated, n_msgs, {"skipped": skipped})
 
 
-def _parse_fmt(body: bytes, p: Path, pos: int) -> DFFormat:
+def _next_header(buf: bytes, frm: int, n: int, lengths: list[int], eof: bool) -> int | None:
+    """Offset of the next message header in ``buf[frm:]`` whose type is defined and whose message is followed by
+    another header (or ends the file); None if there is none in the buffer."""
+    q = frm
+    while True:
+        q = buf.find(b"\xa3\x95", q)
+        if q < 0 or q + 3 > n:
+            return None
+        length = lengths[buf[q + 2]]
+        if length:
+            e = q + length
+            if e + 3 <= n:
+                if buf[e] == HEAD1 and buf[e + 1] == HEAD2 and lengths[buf[e + 2]]:
+                    return q
+            elif eof and e <= n:
+                return q
+            elif not eof:
+                return None  # decide with the next chunk
+        q += 1
+
+
+def _time_of(buf: bytes, at: int, names: dict[int, str], formats: dict[str, DFFormat]) -> float | None:
+    """TimeUS (s) of the message at ``at`` when its format starts with one."""
+    f = formats.get(names.get(buf[at + 2], ""))
+    if f is None or not f.columns or f.columns[0] != "TimeUS" or f.format[:1] != "Q" or at + 11 > len(buf):
+        return None
+    return int.from_bytes(buf[at + 3:at + 11], "little") * 1e-6
+
+
+def _parse_fmt(body: bytes, p: Path, pos: int) -> DFFormat | None:
     try:
         typ, length = body[0], body[1]
         name = body[2:6].rstrip(b"\0").decode("ascii")
         fmt = body[6:22].rstrip(b"\0").decode("ascii")
         cols = body[22:86].rstrip(b"\0").decode("ascii")
     except (UnicodeDecodeError, IndexError):
-        raise InputError(f"DataFlash log {p} is corrupted at offset {pos}: unreadable FMT message") from None
+        return None  # a damaged FMT: its type stays undefined, its messages are skipped as damage
     return DFFormat(typ, name, length, fmt, cols.split(",") if cols else [])

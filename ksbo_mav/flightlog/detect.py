@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import mmap
 from pathlib import Path
 
 from ksbo_mav.errors import InputError
@@ -48,20 +47,26 @@ def detect_format(path: str | Path) -> str:
         if len(head) < 3 or head[2] != DF_FMT:
             raise InputError(f"DataFlash log {p} is corrupted: it must start with a FMT message")
         return "bin"
-    if len(head) >= 10:
-        if _holds_tlog_records(p):
-            return "tlog"
-    elif len(head) < 10:
+    return _by_scanning(p)
+
+
+SCAN = 1 << 16  # bytes searched for a record start when the file does not begin with one
+
+
+def _by_scanning(p: Path) -> str:
+    """A tlog whose first record is valid whatever its timestamp, or one that starts mid-stream (a valid frame
+    further in); a DataFlash log whose head is missing (FMT messages further in)."""
+    from ksbo_mav.flightlog.tlog_frames import first_record
+
+    with open(p, "rb") as fh:
+        head = fh.read(SCAN)
+    if len(head) < 8 + 8:
         raise InputError(f"log {p} is truncated or not a flight log: only {len(head)} byte(s)")
+    at = first_record(head, len(head))
+    df = head.find(DF_HEAD + bytes([DF_FMT]))
+    if at is not None and (df < 0 or at <= df):
+        return "tlog"
+    if df >= 0 and head.find(DF_HEAD + bytes([DF_FMT]), df + 3) >= 0:
+        return "bin"
     raise InputError(f"{p} is corrupted or not a flight log: its first bytes are neither a MAVLink .tlog record, "
                      f"an ArduPilot DataFlash .BIN header nor a PX4 ULog header")
-
-
-def _holds_tlog_records(p: Path) -> bool:
-    """Whether a MAVLink tlog record (8-byte timestamp, a frame whose checksum holds) starts in the first megabyte
-    of ``p``: at offset 0, or later when the recording began mid-stream or the head is damaged."""
-    from ksbo_mav.flightlog.tlog_frames import resync
-    from ksbo_mav.mav.wire import mavlink
-
-    with open(p, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-        return resync(mm, 0, len(mm), mavlink.MAVLink(None)) is not None

@@ -101,6 +101,7 @@ class FlightLog:
     warnings: list[str] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
     truncated_at: float | None = None  # vehicle time of the last complete sample before a cut, if the file is cut
+    skipped: list = field(default_factory=list)  # damaged spans the reader skipped (Skipped)
 
 
 @dataclass
@@ -110,3 +111,22 @@ class Segment:
     t_end: float
     mode: str
     open_end: bool  # the log ends while still in this segment
+    note: str = ""  # why it starts here when not at a mode change (a tuned parameter changed)
+
+
+@dataclass
+class Skipped:
+    offset: int  # first byte skipped
+    nbytes: int
+    t_before: float | None = None  # vehicle time (s) of the last sample before the damage
+    t_after: float | None = None  # ... and of the first after it
+    why: str = ""  # what was wrong where the damage starts, when the reader can tell
+
+    def describe(self) -> str:
+        when = ""
+        if self.t_before is not None or self.t_after is not None:
+            a = "start" if self.t_before is None else f"{self.t_before:.1f}"
+            b = "end" if self.t_after is None else f"{self.t_after:.1f}"
+            when = f", t={a}..{b} s"
+        why = f" ({self.why})" if self.why else ""
+        return f"{self.nbytes} damaged bytes skipped at offset {self.offset}{when}{why}"

@@ -14,12 +14,27 @@ from ksbo_mav.flightlog.analysis import reference
 from ksbo_mav.flightlog.model import FlightLog
 
 
-def _check(path: str | Path) -> Path:
+def check_plot_path(path: str | Path) -> Path:
+    """The plot's path, its directory created; InputError (one line) when it cannot be written there."""
     path = Path(path)
     if path.suffix.lower() not in {".png", ".pdf", ".svg"}:
         raise InputError(f"plot file must end in .png, .pdf or .svg, got {path.name!r}")
-    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot write plot {path}: {exc.strerror or exc}") from None
     return path
+
+
+def _save(fig, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    try:
+        fig.savefig(path, dpi=110)
+    except OSError as exc:
+        raise InputError(f"cannot write plot {path}: {exc.strerror or exc}") from None
+    finally:
+        plt.close(fig)
 
 
 def _series(log: FlightLog, seg: dict[str, Any], mission) -> dict[str, Any]:
@@ -43,7 +58,7 @@ def _series(log: FlightLog, seg: dict[str, Any], mission) -> dict[str, Any]:
 def plot_segment(log: FlightLog, seg: dict[str, Any], mission, path: str | Path, title: str = "") -> Path:
     from ksbo_mav.plotting import pyplot
 
-    path = _check(path)
+    path = check_plot_path(path)
     s = _series(log, seg, mission)
     plt = pyplot()
     fig = plt.figure(figsize=(12, 5.5), constrained_layout=True)
@@ -75,7 +90,7 @@ def plot_segment(log: FlightLog, seg: dict[str, Any], mission, path: str | Path,
         ax.grid(alpha=0.3)
         ax.legend(loc="upper right", fontsize=7)
     fig.suptitle(title or f"{Path(log.path).name}: segment {seg['segment']} ({seg['mode']})")
-    fig.savefig(path, dpi=110)
+    _save(fig, path)
     plt.close(fig)
     return path
 
@@ -84,7 +99,7 @@ def plot_compare(runs: list[tuple[str, FlightLog, dict[str, Any]]], mission, pat
     """Two (or more) logs' segments: top view and horizontal error over time, one colour per log."""
     from ksbo_mav.plotting import pyplot
 
-    path = _check(path)
+    path = check_plot_path(path)
     plt = pyplot()
     fig = plt.figure(figsize=(12, 5), constrained_layout=True)
     grid = fig.add_gridspec(2, 2, width_ratios=[1.0, 1.5])
@@ -112,6 +127,6 @@ def plot_compare(runs: list[tuple[str, FlightLog, dict[str, Any]]], mission, pat
     for ax in (ax_h, ax_v):
         ax.grid(alpha=0.3)
     fig.suptitle("compare: " + "  vs  ".join(label for label, _, _ in runs))
-    fig.savefig(path, dpi=110)
+    _save(fig, path)
     plt.close(fig)
     return path

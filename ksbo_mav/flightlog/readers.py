@@ -6,7 +6,7 @@
   station sends as ``SRC=sys/comp:text``).
 * ``.ulg`` (PX4): ``vehicle_local_position`` (actual), ``vehicle_local_position_setpoint`` (the position
   controller's target), ``trajectory_setpoint`` (what offboard/auto asked for), ``vehicle_status.nav_state`` for
-  modes (armed only); read with pyulog, filtered to those topics.
+  modes (armed only); read by .ulog_records, filtered to those topics.
 * ``.tlog`` (any ground station): the vehicle's LOCAL_POSITION_NED; its POSITION_TARGET_LOCAL_NED when streamed
   (the autopilot's target), else the SET_POSITION_TARGET_LOCAL_NED a ground station sent; modes from the
   vehicle's HEARTBEATs; ksbo trial markers from STATUSTEXT. Streamed: records are framed from an mmap and only
@@ -20,10 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from ksbo_mav.errors import InputError
+from ksbo_mav.flightlog.advice import bin_no_position, parse_banner, set_version
+from ksbo_mav.flightlog.bin_sources import WANTED as SOURCES
+from ksbo_mav.flightlog.bin_sources import position_tracks
 from ksbo_mav.flightlog.dataflash import read_dataflash
 from ksbo_mav.flightlog.detect import detect_format
 from ksbo_mav.flightlog.model import FlightLog, Marker, ModeChange, Track
-from ksbo_mav.flightlog.modes import COPTER_MODES, COPTER_TRACKING  # noqa: F401 - re-exported
+from ksbo_mav.flightlog.modes import COPTER_MODES, COPTER_TRACKING, ardupilot_mode, vehicle_from_text  # noqa: F401
 from ksbo_mav.flightlog.tlogs import read_any_tlog
 from ksbo_mav.flightlog.ulog import read_ulg
 
@@ -34,39 +37,70 @@ NTUN_BIT = 5
 def read_log(path: str | Path, partial: bool = False) -> FlightLog:
     """Read any supported log (format detected by content)."""
     fmt = detect_format(path)
-    return {"bin": read_bin, "ulg": read_ulg, "tlog": read_any_tlog}[fmt](Path(path), partial=partial)
+    try:
+        return {"bin": read_bin, "ulg": read_ulg, "tlog": read_any_tlog}[fmt](Path(path), partial=partial)
+    except InputError:
+        raise
+    except (ValueError, IndexError, KeyError, TypeError, OverflowError) as exc:  # damage in a definition itself
+        raise InputError(f"{path} is damaged where the reader cannot skip it (a format definition): "
+                         f"{type(exc).__name__}: {exc}") from None
 
 
 # --- ArduPilot DataFlash ------------------------------------------------------------------------------------------
-BIN_WANTED = {"PSCN", "PSCE", "PSCD", "GUIP", "MODE", "MSG", "PARM", "ARM"}
+BIN_WANTED = {"GUIP", "MODE", "MSG", "PARM", "ARM", "EV"} | SOURCES
+EV_ARMED, EV_DISARMED = 10, 11  # DataFlash EV ids (logs without ARM messages)
+
+
+def bin_modes(c, vehicle: str) -> list[ModeChange]:
+    """Mode changes with the arming state folded in: a mode chosen while disarmed is DISARMED (not tracking) until
+    the vehicle arms; every arm and disarm (ARM, or EV in older logs) is seen."""
+    events = []
+    for row in c.data.get("MODE", ()):
+        events.append((float(row["TimeUS"]) * 1e-6, "mode", int(row["ModeNum"])))
+    for row in c.data.get("ARM", ()):
+        events.append((float(row["TimeUS"]) * 1e-6, "arm", int(row["ArmState"]) != 0))
+    if "ARM" not in c.data:
+        for row in c.data.get("EV", ()):
+            if int(row["Id"]) in (EV_ARMED, EV_DISARMED):
+                events.append((float(row["TimeUS"]) * 1e-6, "arm", int(row["Id"]) == EV_ARMED))
+    events.sort(key=lambda e: e[0])
+    arm_known = any(kind == "arm" for _, kind, _ in events)
+    first_arm = next((v for _, kind, v in events if kind == "arm"), None)
+    armed = not arm_known or first_arm is False  # before the first arm record: the opposite of what it records
+    mode, out, last = None, [], None
+    for t, kind, v in events:
+        if kind == "mode":
+            mode = v
+        else:
+            armed = v
+        if mode is None:
+            continue
+        name, tracking = ardupilot_mode(vehicle, mode)
+        key = (name, armed)
+        if key != last:
+            out.append(ModeChange(t, name if armed else "DISARMED", tracking and armed))
+            last = key
+    return out
 
 
 def read_bin(p: Path, partial: bool = False) -> FlightLog:
     c = read_dataflash(p, BIN_WANTED)
-    have = {k for k in ("PSCN", "PSCE", "PSCD") if k in c.data and len(c.data[k])}
+    banner = _banner(c)
+    vehicle = vehicle_from_text(banner) or "copter"
     params = _bin_params(c)
-    if have != {"PSCN", "PSCE", "PSCD"}:
-        missing = ", ".join(sorted({"PSCN", "PSCE", "PSCD"} - have))
-        bitmask = params.get("LOG_BITMASK")
-        if bitmask is not None and not int(bitmask) & (1 << NTUN_BIT):
-            why = (f"position-controller logging is off: LOG_BITMASK = {int(bitmask)} lacks bit {NTUN_BIT} "
-                   f"(NTUN, value {1 << NTUN_BIT}); set LOG_BITMASK = {int(bitmask) | (1 << NTUN_BIT)} and fly again")
-        elif bitmask is None:
-            why = (f"no PARM LOG_BITMASK in the log either; PSCN/PSCE/PSCD are logged under LOG_BITMASK bit "
-                   f"{NTUN_BIT} (NTUN) in GUIDED/AUTO/LOITER")
-        else:
-            why = (f"LOG_BITMASK = {int(bitmask)} has bit {NTUN_BIT} (NTUN) set, so the vehicle never flew a "
-                   f"position-controlled mode while logging")
-        if c.truncated and c.messages < 100:
-            raise InputError(f"DataFlash log {p} is truncated: it ends inside message {c.messages + 1} at offset "
-                             f"{c.end} of {c.size} bytes, before any position-controller data")
-        raise InputError(f"DataFlash log {p} has no position-controller messages ({missing}): {why}")
-    n = min(len(c.data[k]) for k in ("PSCN", "PSCE", "PSCD"))
-    t = c.data["PSCN"]["TimeUS"][:n].astype(float) * 1e-6
-    cols = lambda pre: np.column_stack([c.column(m, f"{pre}{ax}")[:n]  # noqa: E731
-                                        for m, ax in (("PSCN", "N"), ("PSCE", "E"), ("PSCD", "D"))])
-    actual = Track(t, cols("P"), cols("V"), "PSCN/PSCE/PSCD P* (EKF position)")
-    target = Track(t, cols("TP"), cols("TV"), "PSCN/PSCE/PSCD TP* (position controller target)")
+    info = {"bytes": c.size, "messages": c.messages, "params": params, "end_offset": c.end, "vehicle": vehicle}
+    if (b := parse_banner(banner)) is not None:
+        set_version(info, *b)
+    tracks = position_tracks(c)
+    if tracks is None:
+        if c.messages < 100 and (c.truncated or c.extra["skipped"]):
+            raise InputError(f"DataFlash log {p} is truncated or damaged: {c.messages} message(s) readable of "
+                             f"{c.size} bytes, none from the position controller")
+        raise InputError(f"DataFlash log {p} has no position-controller messages: "
+                         + bin_no_position(info, params, bin_modes(c, vehicle)))
+    actual, target, used = tracks
+    t = actual.t
+    n = len(t)
     commanded = None
     if "GUIP" in c.data and len(c.data["GUIP"]):
         g = c.data["GUIP"]
@@ -77,17 +111,7 @@ def read_bin(p: Path, partial: bool = False) -> FlightLog:
         sel = np.isin(g["Type"], (2, 3))
         if sel.any():
             commanded = Track(g["TimeUS"][sel] * 1e-6, pos[sel], vel[sel], "GUIP (guided setpoint received)")
-    modes = []
-    if "MODE" in c.data:
-        for row in c.data["MODE"]:
-            num = int(row["ModeNum"])
-            modes.append(ModeChange(float(row["TimeUS"]) * 1e-6, COPTER_MODES.get(num, f"MODE{num}"),
-                                    num in COPTER_TRACKING))
-    if "ARM" in c.data:
-        for row in c.data["ARM"]:
-            if int(row["ArmState"]) == 0:
-                modes.append(ModeChange(float(row["TimeUS"]) * 1e-6, "DISARMED", False))
-    modes.sort(key=lambda m: m.t)
+    modes = bin_modes(c, vehicle)
     markers = []
     if "MSG" in c.data:
         for row in c.data["MSG"]:
@@ -97,12 +121,23 @@ def read_bin(p: Path, partial: bool = False) -> FlightLog:
             if text.startswith("ksbo "):
                 markers.append(Marker(float(row["TimeUS"]) * 1e-6, text))
     log = FlightLog(p, "bin", "ardupilot", actual, target, commanded, modes, markers,
-                    info={"bytes": c.size, "messages": c.messages, "pscn": n, "params": params,
+                    info={**info, "pscn": n, "source": used,
+                          "param_changes": [(float(r["TimeUS"]) * 1e-6, r["Name"].split(b"\0", 1)[0].decode(
+                              "ascii", "replace"), float(r["Value"])) for r in c.data.get("PARM", ())],
                           "end_offset": c.end})
+    log.skipped = c.extra["skipped"]
     if c.truncated:
         log.truncated_at = float(t[-1]) if n else None
         log.info["truncated"] = f"ends inside a message at offset {c.end} of {c.size}"
     return log
+
+
+def _banner(c) -> str:
+    for row in c.data.get("MSG", ()):
+        text = row["Message"].split(b"\0", 1)[0].decode("ascii", "replace")
+        if vehicle_from_text(text):
+            return text
+    return ""
 
 
 def _bin_params(c) -> dict[str, float]:
