@@ -85,7 +85,7 @@ def test_a_plot_path_that_cannot_be_written_is_one_line_before_any_work(tmp_path
     for cmd in (["score", str(path)], ["compare", str(path), str(path)]):
         rc = main([*cmd, "--plot", str(plot)])
         err = capsys.readouterr().err.strip()
-        assert rc == 2 and err.startswith(f"error: --plot {plot}:") and "\n" not in err, err
+        assert rc == 2 and err.startswith("error: ") and "plot" in err and "\n" not in err, err
     assert not (tmp_path / "afile").is_dir()
 
 
