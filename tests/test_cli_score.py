@@ -107,7 +107,7 @@ def test_aborted_trial_scores_unsafe(tmp_path, capsys):
 @pytest.mark.parametrize("damage,message", [
     ("empty", "is empty"),
     ("truncated", "truncated"),
-    ("corrupted", "corrupted"),
+    ("corrupted", "damaged bytes skipped"),
     ("foreign", "corrupted"),
     ("missing", "cannot read"),
     ("unfinished", "end marker"),
@@ -133,3 +133,21 @@ def test_bad_tlogs_give_clear_errors(tmp_path, capsys, damage, message):
     rc, _, err = run_score(capsys, path)
     assert rc == 2
     assert err.strip().startswith("error: ") and message in err and "Traceback" not in err
+
+
+def test_a_damaged_trial_tlog_is_scored_as_a_flight_log_with_partial(tmp_path, capsys):
+    """The exact live score needs every record; a damaged trial tlog is read like any field log instead: refused
+    without --partial (one line naming the damage), scored with it, and the result says why it is not the trial's
+    exact score."""
+    path = tmp_path / "t.tlog"
+    write_trial(path)
+    data = path.read_bytes()
+    path.write_bytes(data[:len(data) // 2] + np.random.default_rng(3).bytes(64) + data[len(data) // 2:])
+    rc, _, err = run_score(capsys, path)
+    assert rc == 2 and "damaged bytes skipped" in err and "--partial" in err and err.count("\n") == 1, err
+    rc = main(["score", str(path), "--json", "--partial"])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    out = json.loads(cap.out)
+    assert out["warnings"][0].startswith("not re-scored as a trial") and out["damaged_spans"]
+    assert out["segments"] and out["segments"][0]["vs_target"]["h_rms_m"] > 0

@@ -113,22 +113,24 @@ def test_guided_on_the_ground_is_not_scored_as_perfect_tracking(tmp_path, capsys
             assert "too little motion" in err and "moved 0.00 m" in err
 
 
-def _global_target_tlog(path, origin=(47.397742, 8.545594, 488.0)) -> None:
+def _global_target_tlog(path, origin=(47.397742, 8.545594, 488.0), relayed: bool = False) -> None:
     """The ground station's tlog of write_other_tlog, but the vehicle's target only as POSITION_TARGET_GLOBAL_INT
     (above home) and its position also as GLOBAL_POSITION_INT: what ArduPilot's default streams give a ground
-    station."""
-    from flightlog_helpers import T_DISARM, T_GUIDED, T_LAND, error, on_ground, target
+    station. ``relayed``: as MAVProxy records a flight flown by a client behind it: the vehicle's global target only
+    during the take-off (ArduCopter sends none while it follows streamed setpoints), the client's
+    SET_POSITION_TARGET_LOCAL_NED relayed and recorded without a direction flag."""
+    from flightlog_helpers import MASK_POS_VEL_ACC, T_DISARM, T_GUIDED, T_LAND, error, on_ground, target
 
     from ksbo_mav.flightlog.geo import R_EARTH
     from ksbo_mav.mav.tlog import LINK_RECEIVED, TlogWriter
 
     lat0, lon0, amsl0 = origin
-    veh = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    veh, gcs = mavlink.MAVLink(None, srcSystem=1, srcComponent=1), mavlink.MAVLink(None, 255, 190)
     wr = TlogWriter(path)
     now = [0]
 
     def put(msg):  # the ground station's clock follows the vehicle's
-        wr.write(msg.pack(veh), LINK_RECEIVED, 1_700_000_000_000_000 + 1000 * now[0])
+        wr.write(msg.pack(gcs if msg.get_srcSystem() == 255 else veh), LINK_RECEIVED, 1_700_000_000_000_000 + 1000 * now[0])
 
     def glob(ned):
         lat = lat0 + np.degrees(ned[0] / R_EARTH)
@@ -146,7 +148,12 @@ def _global_target_tlog(path, origin=(47.397742, 8.545594, 488.0)) -> None:
         put(veh.local_position_ned_encode(ms, *a, *v))
         la, lo, up = glob(a)
         put(veh.global_position_int_encode(ms, la, lo, int((amsl0 + up) * 1000), int(up * 1000), 0, 0, 0, 0))
-        if T_GUIDED <= t < T_LAND:
+        if relayed and T_GUIDED <= t < T_GUIDED + 2.0 and k % 10 == 0:
+            la, lo, up = glob(p)
+            put(veh.position_target_global_int_encode(ms, 6, 0b110111111000, la, lo, up, 0, 0, 0, 0, 0, 0, 0, 0))
+        elif relayed and T_GUIDED <= t < T_LAND:
+            put(gcs.set_position_target_local_ned_encode(ms, 1, 1, 1, MASK_POS_VEL_ACC, *p, *v, 0, 0, 0, 0, 0))
+        elif T_GUIDED <= t < T_LAND:
             la, lo, up = glob(p)
             put(veh.position_target_global_int_encode(ms, 6, 0b110111111000, la, lo, up, *v, 0, 0, 0, 0, 0))
         k += 1
@@ -167,3 +174,19 @@ def test_targets_in_global_coordinates_are_scored_in_the_logs_own_local_frame(tm
     assert doc["target_source"].startswith("POSITION_TARGET_GLOBAL_INT")
     a, b = ref["segments"][0]["vs_target"], doc["segments"][0]["vs_target"]
     assert abs(a["h_rms_m"] - b["h_rms_m"]) < 1e-3 and abs(a["v_rms_m"] - b["v_rms_m"]) < 1e-3
+
+
+def test_a_relay_s_tlog_is_scored_against_the_relayed_setpoints(tmp_path, capsys) -> None:
+    """MAVProxy's tlog of a flight flown by a client behind it: the vehicle's POSITION_TARGET_GLOBAL_INT covers only
+    the take-off (it used to be taken as the target, stood still, and the flight was refused as "too little
+    motion"); the relayed SET_POSITION_TARGET_LOCAL_NED are the targets, and the log says why."""
+    ref_path = write_other_tlog(tmp_path / "local.tlog")
+    rc, ref, err = _score(capsys, ref_path)
+    assert rc == 0, err
+    relay = tmp_path / "relay.tlog"
+    _global_target_tlog(relay, relayed=True)
+    rc, doc, err = _score(capsys, relay)
+    assert rc == 0, err
+    assert doc["target_source"].startswith("SET_POSITION_TARGET_LOCAL_NED")
+    assert any("POSITION_TARGET_GLOBAL_INT covers only" in w for w in doc["warnings"])
+    assert abs(_lap2(doc) - _lap2(ref)) < 1e-3

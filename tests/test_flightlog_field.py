@@ -164,6 +164,9 @@ def test_ulog_head_cut_is_one_line(tmp_path, capsys):
     (tmp_path / "mid.ulg").write_bytes(good[1024:])
     err = one_line_error(capsys, "score", tmp_path / "mid.ulg")
     assert "not a flight log" in err  # the ULog header and definitions are gone: nothing can be decoded
+    (tmp_path / "headless.ulg").write_bytes(good[16:])  # the header alone cut: the formats show what it was
+    err = one_line_error(capsys, "score", tmp_path / "headless.ulg")
+    assert "looks like a PX4 ULog whose head is missing" in err
 
 
 # --- targets the log has, whatever the message set --------------------------------------------------------------

@@ -51,7 +51,7 @@ def is_trial_tlog(path: str | Path) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ksbo_mav.flightlog import detect_format, score_file
+    from ksbo_mav.flightlog import detect_format
 
     if args.plot:
         from ksbo_mav.flightlog.plot import check_plot_path
@@ -60,7 +60,15 @@ def run(args: argparse.Namespace) -> int:
     fmt = detect_format(args.log)
     if fmt == "tlog" and is_trial_tlog(args.log):
         return _run_trial(args)
+    return _run_generic(args)
+
+
+def _run_generic(args: argparse.Namespace, warning: str | None = None) -> int:
+    from ksbo_mav.flightlog import score_file
+
     result, log, mission = score_file(args.log, args.profile, args.partial, args.segment, args.rms_ref)
+    if warning:
+        result["warnings"].insert(0, warning)
     if args.plot:
         _plot(log, result, mission, args.plot)
     if args.json:
@@ -140,7 +148,12 @@ def _run_trial(args: argparse.Namespace) -> int:
     from ksbo_mav.mav.trajectory import trajectory_from_tlog
     from ksbo_mav.profiles import load_profile
 
-    traj, info, rec = trajectory_from_tlog(read_tlog(args.log))
+    try:
+        records = read_tlog(args.log)
+    except InputError as exc:  # damaged: the exact live score needs every record; score it as any flight log
+        return _run_generic(args, warning=f"not re-scored as a trial (the exact score needs the intact file: "
+                                          f"{str(exc).split(': ', 1)[-1]}); scored as a flight log")
+    traj, info, rec = trajectory_from_tlog(records)
     name = args.profile
     if name is None and rec.kind == "figure8-xz":
         name = "sim-planar"

@@ -68,5 +68,9 @@ def _by_scanning(p: Path) -> str:
         return "tlog"
     if df >= 0 and head.find(DF_HEAD + bytes([DF_FMT]), df + 3) >= 0:
         return "bin"
+    if b"uint64_t timestamp;" in head:  # ULog format definitions ('F' records) without the ULog header before them
+        raise InputError(f"{p} looks like a PX4 ULog whose head is missing (no ULog header at offset 0, message "
+                         f"formats further in): a ULog cannot be decoded without its header and every format "
+                         f"definition; use the file as the vehicle wrote it")
     raise InputError(f"{p} is corrupted or not a flight log: its first bytes are neither a MAVLink .tlog record, "
                      f"an ArduPilot DataFlash .BIN header nor a PX4 ULog header")
