@@ -130,7 +130,8 @@ def _global_target_tlog(path, origin=(47.397742, 8.545594, 488.0), relayed: bool
     now = [0]
 
     def put(msg):  # the ground station's clock follows the vehicle's
-        wr.write(msg.pack(gcs if msg.get_srcSystem() == 255 else veh), LINK_RECEIVED, 1_700_000_000_000_000 + 1000 * now[0])
+        mav = gcs if msg.get_srcSystem() == 255 else veh
+        wr.write(msg.pack(mav), LINK_RECEIVED, 1_700_000_000_000_000 + 1000 * now[0])
 
     def glob(ned):
         lat = lat0 + np.degrees(ned[0] / R_EARTH)
