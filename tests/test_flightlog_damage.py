@@ -129,8 +129,7 @@ def _global_target_tlog(path, origin=(47.397742, 8.545594, 488.0), relayed: bool
     wr = TlogWriter(path)
     now = [0]
 
-    def put(msg):  # the ground station's clock follows the vehicle's
-        mav = gcs if msg.get_srcSystem() == 255 else veh
+    def put(msg, mav=veh):  # the ground station's clock follows the vehicle's
         wr.write(msg.pack(mav), LINK_RECEIVED, 1_700_000_000_000_000 + 1000 * now[0])
 
     def glob(ned):
@@ -153,7 +152,7 @@ def _global_target_tlog(path, origin=(47.397742, 8.545594, 488.0), relayed: bool
             la, lo, up = glob(p)
             put(veh.position_target_global_int_encode(ms, 6, 0b110111111000, la, lo, up, 0, 0, 0, 0, 0, 0, 0, 0))
         elif relayed and T_GUIDED <= t < T_LAND:
-            put(gcs.set_position_target_local_ned_encode(ms, 1, 1, 1, MASK_POS_VEL_ACC, *p, *v, 0, 0, 0, 0, 0))
+            put(gcs.set_position_target_local_ned_encode(ms, 1, 1, 1, MASK_POS_VEL_ACC, *p, *v, 0, 0, 0, 0, 0), gcs)
         elif T_GUIDED <= t < T_LAND:
             la, lo, up = glob(p)
             put(veh.position_target_global_int_encode(ms, 6, 0b110111111000, la, lo, up, *v, 0, 0, 0, 0, 0))
