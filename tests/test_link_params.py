@@ -108,14 +108,22 @@ def test_a_link_that_stops_delivering_gives_up_after_the_stall_budget_with_one_l
 
 @pytest.mark.sitl
 @pytest.mark.slow
-def test_arducopter_parameters_arrive_through_a_radio_like_link(ardupilot_sitl) -> None:
-    """About 1350 parameters through 4 kB/s down, 2 kB/s up, a 1 KB buffer and 5 % loss (the PARAM protocol)."""
+@pytest.mark.parametrize("ftp", [True, False], ids=["MAVLink FTP", "PARAM protocol"])
+def test_arducopter_parameters_arrive_through_a_radio_like_link(ardupilot_sitl, ftp: bool) -> None:
+    """About 1350 parameters through 4 kB/s down, 2 kB/s up, a 1 KB buffer and 5 % loss: as one file over MAVLink
+    FTP (ArduPilot serves @PARAM/param.pck), or by the PARAM protocol; the same values either way."""
     gport = free_udp_port()
     emu = LinkEmulator(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_port}", f"udp:127.0.0.1:{gport}", RADIO)
     try:
-        v = Vehicle.connect(Endpoint("udp", "127.0.0.1", gport), None)
+        v = Vehicle.connect(Endpoint("udp", "127.0.0.1", gport), None, param_ftp=ftp)
         try:
             assert len(v.params.table) == v.params.count > 1000
+            assert v.params.last_download.path == ("MAVLink FTP" if ftp else "PARAM protocol")
+            names = [n for n in ("PSC_POSXY_P", "PSC_NE_POS_P", "PSC_VELXY_P", "WPNAV_SPEED", "FRAME_CLASS")
+                     if n in v.params.table]
+            assert len(names) >= 3
+            for name in names:  # a float and an integer parameter read back one by one: the same value
+                assert v.params.table[name].value == pytest.approx(v.params.read(name, timeout=3.0, retries=5))
         finally:
             v.close()
     finally:

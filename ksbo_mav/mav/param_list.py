@@ -35,6 +35,8 @@ class ParamListing:
     seconds: float = 0.0
     requests: int = 0  # PARAM_REQUEST_READ sent for missing indices
     duplicates: int = 0
+    path: str = "PARAM protocol"
+    nbytes: int = 0  # the parameter file's size (MAVLink FTP)
 
     @property
     def complete(self) -> bool:

@@ -21,7 +21,7 @@ import numpy as np
 
 from ksbo_mav.errors import InputError, VehicleError, VerifyError
 from ksbo_mav.mav.link import Link
-from ksbo_mav.mav.param_list import download_list
+from ksbo_mav.mav.param_list import ParamListing, download_list
 
 REAL32, REAL64 = 9, 10
 #: MAV_PARAM_TYPE -> struct format of the integer inside the 4-byte param union (little-endian).
@@ -77,16 +77,31 @@ class ParamClient:
         self.table: dict[str, Param] = {}
         self.count = 0
         self.last_download: Any = None
+        self.ftp_failure = ""  # why the FTP path was not used, when it was tried
 
     def _id(self, name: str) -> bytes:
         return name.encode("ascii")
 
     # --- download -----------------------------------------------------------------------------------------
-    def fetch_all(self, stall_s: float = 15.0, progress: Callable[[int, int], None] | None = None
-                  ) -> dict[str, Param]:
-        """Download every parameter (:func:`ksbo_mav.mav.param_list.download_list`: it keeps asking for missing
-        indices while the link delivers, and gives up after ``stall_s`` seconds without a new one);
-        :class:`VehicleError` unless all ``param_count`` indices arrived. ``last_download`` says how it went."""
+    def fetch_all(self, stall_s: float = 15.0, progress: Callable[[int, int], None] | None = None,
+                  ftp: bool = False) -> dict[str, Param]:
+        """Download every parameter: with ``ftp`` first as one file over MAVLink FTP
+        (:mod:`ksbo_mav.mav.param_ftp`), else or when that fails by the PARAM protocol
+        (:func:`ksbo_mav.mav.param_list.download_list`: it keeps asking for missing indices while the link
+        delivers, and gives up after ``stall_s`` seconds without a new one); :class:`VehicleError` unless every
+        parameter arrived. ``last_download`` says how it went (``path``: "MAVLink FTP" or "PARAM protocol")."""
+        self.ftp_failure = ""
+        if ftp:
+            from ksbo_mav.mav.param_ftp import download_ftp
+
+            got, self.ftp_failure = download_ftp(self.link, progress=progress)
+            if got is not None:
+                self.table = {name: Param(name, value, ptype, i)
+                              for i, (name, (value, ptype)) in enumerate(got.values.items())}
+                self.count = len(self.table)
+                self.last_download = ParamListing(count=self.count, seconds=got.seconds, path="MAVLink FTP",
+                                                  nbytes=got.nbytes)
+                return self.table
         res = download_list(self.link, stall_s=stall_s, progress=progress)
         self.last_download = res
         if not res.complete:

@@ -28,6 +28,7 @@ from ksbo_mav.mav.params import ParamClient
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
 from ksbo_mav.mav.telemetry import Telemetry
 from ksbo_mav.mav.wire import mavlink
+from ksbo_mav.mav.param_ftp import CAPABILITY_FTP
 from ksbo_mav.profiles import Profile, load_profile
 
 class Vehicle:
@@ -49,8 +50,10 @@ class Vehicle:
     @classmethod
     def connect(cls, endpoint: Endpoint, profile: str | None = None, *, sysid: int | None = None,
                 compid: int | None = None, timeout: float = 15.0,
-                log: Callable[[str], None] = lambda s: None) -> "Vehicle":
-        """Connect as ``sysid``/``compid`` (defaults: :data:`~ksbo_mav.mav.link.DEFAULT_SYSID` ...)."""
+                log: Callable[[str], None] = lambda s: None, param_ftp: bool = True) -> "Vehicle":
+        """Connect as ``sysid``/``compid`` (defaults: :data:`~ksbo_mav.mav.link.DEFAULT_SYSID` ...) and download
+        every parameter: over MAVLink FTP when the autopilot advertises it and ``param_ftp``, else (or when that
+        fails) by the PARAM protocol."""
         kwargs = {k: v for k, v in (("sysid", sysid), ("compid", compid)) if v is not None}
         link = Link(endpoint, **kwargs)
         try:
@@ -67,10 +70,15 @@ class Vehicle:
             cmd.stack = stack
             log(f"vehicle sysid {ident.sysid}: {stack.name} {ident.firmware}, type {ident.vehicle_type}")
             params = ParamClient(link, stack.encoding)
-            table = params.fetch_all(progress=lambda got, n: log(f"parameters: {got} of {n or '?'} so far"))
+            use_ftp = param_ftp and bool(ident.capabilities & CAPABILITY_FTP)
+            table = params.fetch_all(progress=lambda got, n: log(f"parameters: {got} of {n or '?'} so far"),
+                                     ftp=use_ftp)
             dl = params.last_download
-            log(f"parameters: {len(table)} of {params.count} downloaded in {dl.seconds:.1f} s (PARAM protocol"
-                + (f", {dl.requests} re-requested)" if dl.requests else ")"))
+            if params.ftp_failure:
+                log(f"parameters: {params.ftp_failure}; falling back to the PARAM protocol")
+            how = (f"{dl.path}, {dl.nbytes} bytes" if dl.nbytes else dl.path) + (
+                f", {dl.requests} re-requested" if dl.requests else "")
+            log(f"parameters: {len(table)} of {params.count} downloaded in {dl.seconds:.1f} s ({how})")
             prof = load_profile(profile or default_profile(ident, stack))
             want = str(prof.vehicle.get("autopilot", ""))
             if want and want != stack.name:
