@@ -140,14 +140,16 @@ def _realtime_through(shape: str):
 
 
 @pytest.mark.network
+@pytest.mark.timeout(300)
 def test_a_link_too_thin_for_the_mission_is_refused_before_arming_in_one_line(tmp_path) -> None:
-    """2 kB/s down (half of what 50 Hz needs): the campaign stops before reading the baseline or arming, names the
-    measured and the needed rates, creates no campaign directory and leaves every parameter as it was."""
+    """1 kB/s down with 5 % loss: not even 10 Hz arrives whole. The campaign stops before reading the baseline or
+    arming, names the measured and the needed rates and the lower rates it tried, creates no campaign directory
+    and leaves every parameter as it was."""
     from mav_tune_helpers import baseline, fresh_read
 
     from ksbo_mav.cli import main
 
-    sim, emu, ep = _realtime_through("down=2000,up=2000,queue=1024,seed=5")
+    sim, emu, ep = _realtime_through("down=1000,up=1000,queue=1024,loss=0.05,seed=5")
     try:
         d = tmp_path / "camp"
         import contextlib
@@ -159,12 +161,36 @@ def test_a_link_too_thin_for_the_mission_is_refused_before_arming_in_one_line(tm
         lines = [ln for ln in err.getvalue().splitlines() if ln.startswith("error: ")]
         assert rc == 2 and len(lines) == 1, err.getvalue()
         assert "link check: the link delivers LOCAL_POSITION_NED" in lines[0] and "needs LOCAL_POSITION_NED at 50 Hz" \
-            in lines[0] and "nothing was written to the vehicle" in lines[0]
+            in lines[0] and "nothing was written to the vehicle" in lines[0] and "tried 25, 20, 10 Hz too" in lines[0]
         assert not d.exists()
         assert fresh_read(sim) == baseline()  # the simulator's gains as it started
     finally:
         sim.stop()
         emu.stop()
+
+
+@pytest.mark.network
+@pytest.mark.timeout(240)
+def test_a_link_too_thin_for_50_hz_flies_at_the_highest_rate_it_carries() -> None:
+    """2 kB/s down: 50 Hz loses half the frames, so the check steps the mission down (setpoints and telemetry)
+    to the first rate that arrives nearly whole, says so, and keeps the profile's rate in the figures."""
+    from ksbo_mav.campaign.link_check import REDUCED_RATES_HZ, check_link
+
+    sim, emu, ep = _realtime_through("down=2000,up=2000,queue=1024,seed=5")
+    try:
+        v = Vehicle.connect(ep, "sim-planar")
+        try:
+            said: list[str] = []
+            fig = check_link(v, said.append, seconds=2.0)
+            rate = v.mission.rate_hz
+        finally:
+            v.close()
+    finally:
+        sim.stop()
+        emu.stop()
+    assert rate in REDUCED_RATES_HZ and fig.reduced_from_hz == 50, said
+    assert said[-1].startswith(f"link: flying at {rate} Hz instead of 50 Hz") and fig.loss <= 0.05
+    assert fig.rates_hz["LOCAL_POSITION_NED"] >= 0.8 * rate
 
 
 @pytest.mark.network

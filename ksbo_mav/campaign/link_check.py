@@ -9,23 +9,56 @@ import time
 from collections.abc import Callable
 
 from ksbo_mav.campaign.layout import CampaignDir
-from ksbo_mav.errors import PreflightError
+from ksbo_mav.errors import PreflightError, VehicleError
 from ksbo_mav.mav.snapshot import fsync_write
 from ksbo_mav.mav.linkcheck import LinkFigures, judged, judged_stream, measure, verdict
 from ksbo_mav.mav.vehicle import Vehicle
 
 
-def check_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0) -> LinkFigures:
-    """Request the mission's streams, measure the link for ``seconds``, say what it delivers; PreflightError (one
-    line naming the measured and needed rates) when a trial could not be flown over it."""
-    v.setup_streams()
+#: Mission rates (Hz) a campaign may step down to when the link cannot carry the profile's: setpoints carry
+#: velocity and acceleration feed-forward, so the autopilot's controller fills in between them (docs/links.md).
+REDUCED_RATES_HZ = (25, 20, 10)
+#: A lower rate is taken only when it also arrives nearly whole: frames still lost at it mean the link is full.
+MAX_LOSS_REDUCED = 0.05
+
+
+def _judge(v: Vehicle, seconds: float, lenient: bool = False) -> tuple[LinkFigures, str | None]:
+    try:
+        v.setup_streams()
+    except VehicleError:
+        if not lenient:
+            raise
+        # a full downlink may drop the acknowledgement of a rate change that went up and took effect: what
+        # arrives next says whether it did
     fig = measure(v.link, seconds)
     why = verdict(fig, float(v.mission.rate_hz))
     if why:  # once more: a burst (the vehicle's parameter download, a ground station joining) may have passed
         fig = measure(v.link, 2 * seconds)
         why = verdict(fig, float(v.mission.rate_hz))
-    log(f"link: {fig.describe()}" + (f" (the mission needs {judged_stream(fig)} at {v.mission.rate_hz} Hz)"
+    return fig, why
+
+
+def check_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, reduce: bool = True) -> LinkFigures:
+    """Request the mission's streams, measure the link for ``seconds``, say what it delivers. When a trial could
+    not be flown over it at the mission's rate and ``reduce``, step the rate (setpoints and telemetry) down through
+    :data:`REDUCED_RATES_HZ` to the first the link carries with at most :data:`MAX_LOSS_REDUCED` of the frames lost,
+    and say so; PreflightError (one line naming the
+    measured and needed rates) when none fits."""
+    asked = v.mission.rate_hz
+    fig, why = _judge(v, seconds)
+    log(f"link: {fig.describe()}" + (f" (the mission needs {judged_stream(fig)} at {asked} Hz)"
                                      if judged(fig) else ""))
+    if why and reduce:
+        for rate in (r for r in REDUCED_RATES_HZ if r < asked):
+            v.set_mission_rate(rate)
+            fig2, why2 = _judge(v, seconds, lenient=True)
+            if why2 is None and fig2.loss <= MAX_LOSS_REDUCED:
+                log(f"link: flying at {rate} Hz instead of {asked} Hz (setpoints with velocity and acceleration "
+                    f"feed-forward, telemetry at {rate} Hz): the link carries it ({fig2.describe()})")
+                fig2.reduced_from_hz = asked
+                return fig2
+        v.set_mission_rate(asked)
+        why += f" (tried {', '.join(str(r) for r in REDUCED_RATES_HZ if r < asked)} Hz too)"
     if why:
         raise PreflightError(why)
     return fig

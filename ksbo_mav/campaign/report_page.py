@@ -129,7 +129,10 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
     if result and result.get("link"):
         from ksbo_mav.mav.linkcheck import LinkFigures
 
-        rows.append(("Link", esc(LinkFigures(**{k: v for k, v in result["link"].items() if k != "at"}).describe())))
+        fig = LinkFigures(**{k: v for k, v in result["link"].items() if k != "at"})
+        flown = (rec.settings.get("mission") or {}).get("rate_hz")
+        rows.append(("Link", esc(fig.describe() + (f"; flown at {flown} Hz, the profile's {fig.reduced_from_hz} Hz "
+                                                   "did not fit the link" if fig.reduced_from_hz else ""))))
     if result and result.get("batteries") is not None:
         rows.append(("Batteries", esc(result["batteries"])))
     c = counts(rec)

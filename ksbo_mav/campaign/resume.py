@@ -36,7 +36,7 @@ def check_unchanged(d: CampaignDir, profile_ref: str | None, log: Callable[[str]
     if old is None:
         log("campaign.json does not record its mission (made by an older ksbo-mav): flying the profile's current "
             f"one ({mission['kind']}, lead-in {mission['lead_in']:g} s)")
-    elif (old := {**ADDED, **old}) != mission:
+    elif (old := {**ADDED, **old, "rate_hz": mission["rate_hz"]}) != mission:  # the link check may lower the rate
         diff = [f"{k} {old.get(k)!r} -> {mission[k]!r}" for k in mission if old.get(k) != mission[k]]
         changed.append("mission " + ", ".join(diff))
     if changed:

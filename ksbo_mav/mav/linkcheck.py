@@ -32,6 +32,7 @@ class LinkFigures:
     loss: float = 0.0  # share of the vehicle's frames missing by sequence number
     rtt_ms: float | None = None  # TIMESYNC round trip (None: not answered)
     radio: dict[str, int] | None = None  # last RADIO_STATUS: rssi, remrssi, noise, remnoise, txbuf, rxerrors
+    reduced_from_hz: int | None = None  # the profile's mission rate, when the campaign flies at a lower one
 
     def to_dict(self) -> dict[str, Any]:
         return {k: (round(v, 3) if isinstance(v, float) else v) for k, v in asdict(self).items()}

@@ -14,6 +14,7 @@ parameter download, the profile's gain map (refusing profiles meant for another 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -24,11 +25,11 @@ from ksbo_mav.mav.gains import GainService
 from ksbo_mav.mav.guided import Guided
 from ksbo_mav.mav.link import Endpoint, Link
 from ksbo_mav.mav.mission import Mission
+from ksbo_mav.mav.param_ftp import CAPABILITY_FTP
 from ksbo_mav.mav.params import ParamClient
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
 from ksbo_mav.mav.telemetry import Telemetry
 from ksbo_mav.mav.wire import mavlink
-from ksbo_mav.mav.param_ftp import CAPABILITY_FTP
 from ksbo_mav.profiles import Profile, load_profile
 
 class Vehicle:
@@ -92,6 +93,11 @@ class Vehicle:
     def close(self) -> None:
         self.guided.hold_at(None)
         self.link.close()
+
+    def set_mission_rate(self, rate_hz: int) -> None:
+        """Fly the mission at ``rate_hz`` (setpoints sent and telemetry asked for); call :meth:`setup_streams`."""
+        self.mission = replace(self.mission, rate_hz=int(rate_hz))
+        self.telemetry.rate_wanted = float(rate_hz)
 
     def setup_streams(self) -> None:
         """LOCAL_POSITION_NED and ATTITUDE at the mission rate by SET_MESSAGE_INTERVAL (no stored change)."""
