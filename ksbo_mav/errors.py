@@ -15,6 +15,11 @@ class InputError(KsboError, ValueError):
     """Malformed or out-of-range input: gains, files, arguments (a ValueError)."""
 
 
+class CampaignPaused(KsboError):
+    """A normal stop that the user resumes (a pack to swap, an autopilot failsafe): the vehicle is left safe, the
+    report written; the message says why and how to go on. Exit code 3, not an error."""
+
+
 class VehicleError(KsboError):
     """The vehicle did not answer, refused a command, or behaved unexpectedly."""
 

@@ -20,6 +20,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ksbo_mav.campaign.battery import BatteryGuard, await_failsafe, failsafe_active, failsafe_message
 from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, prior_kind
 from ksbo_mav.campaign.confirm import confirm_failures, fly_confirmations
 from ksbo_mav.campaign.ending import end_flight, leave_gains, safe_stop
@@ -28,6 +29,7 @@ from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.link_check import check_link, record_link
 from ksbo_mav.campaign.plan import campaign_plan
 from ksbo_mav.campaign.prior import campaign_prior
+from ksbo_mav.campaign.report import write_report
 from ksbo_mav.campaign.result import summarize, write_result
 from ksbo_mav.campaign.resume import check_unchanged
 from ksbo_mav.campaign.search import search
@@ -35,7 +37,7 @@ from ksbo_mav.campaign.setup import baseline_params, connect, create_campaign
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
 from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.campaign.widen import widen_search
-from ksbo_mav.errors import InputError, KsboError
+from ksbo_mav.errors import CampaignPaused, InputError, KsboError
 from ksbo_mav.mav.approach import check_moving_start
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.link import Endpoint
@@ -55,6 +57,24 @@ class Campaign:
         self.progress = progress or (lambda event: None)
         self.connect_timeout = connect_timeout
         self.dir = CampaignDir.at(cfg.dir)
+
+    @property
+    def resume_hint(self) -> str:
+        ep = self.endpoint
+        where = f"--{ep.kind} {ep.host}:{ep.port}" if ep.kind in ("udp", "udpout", "tcp") else f"--serial {ep.host}"
+        return f"ksbo-mav tune --resume {self.dir.root} {where}"
+
+    def _report_after_stop(self, v: Vehicle, log: Callable[[str], None]) -> None:
+        """The report of a campaign stopped to be resumed (what was flown so far); a report that cannot be made is
+        said, never an error on top of the stop."""
+        if not self.dir.exists():
+            return
+        try:
+            paths = write_report(self.dir, v.profile)
+            if paths.get("page"):
+                log(f"report: {paths['page']}")
+        except Exception as exc:  # noqa: BLE001 - the stop's own message matters more
+            log(f"report not written: {exc}")
 
     def _connect(self) -> Vehicle:
         return connect(self.cfg, self.dir, self.endpoint, self.resume, self.connect_timeout, self.log)
@@ -98,7 +118,7 @@ class Campaign:
             journal = Journal(self.dir.journal)
             objective = MavlinkObjective(v, base, self.dir.trials, safety=cfg.safety, settle_s=cfg.settle_s,
                                          first_index=self.dir.next_trial_index(), start_seed=cfg.seed, log=log)
-            trials = TrialLoop(objective, journal, self.progress, log)
+            trials = TrialLoop(objective, journal, self.progress, log, BatteryGuard(v, self.resume_hint))
             started = time.time()
             baseline_trial = trials.fly_baseline(x0)
             with threadpool_limits(1):
@@ -122,9 +142,19 @@ class Campaign:
             write_result(self.dir, summary, v.profile, log)
             return summary
         except (KeyboardInterrupt, KsboError) as exc:
+            flight = getattr(exc, "flight", None)
+            failsafe = failsafe_active(v) or (flight is not None and flight.outcome == "failsafe")
             if base is not None and not isinstance(exc, InputError):
                 safe_stop(v, base, str(self.dir.root), log)
-            end_flight(v, cfg.end, True, log)
+            if failsafe:
+                await_failsafe(v, log)  # the autopilot's RTL / LAND is never overridden
+            else:
+                end_flight(v, cfg.end, True, log)
+            if failsafe or isinstance(exc, CampaignPaused):
+                self._report_after_stop(v, log)
+                if failsafe:
+                    trial = flight.meta.get("trial") if flight is not None else None
+                    raise CampaignPaused(failsafe_message(v, trial, self.resume_hint)) from None
             raise
         finally:
             v.close()

@@ -7,6 +7,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ksbo_mav.campaign.battery import BatteryGuard
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.summary import TrialEvent
 from ksbo_mav.errors import TrialInterrupted, TrialStopped, VehicleError
@@ -22,13 +23,16 @@ class TrialLoop:
     """Flies trials through ``objective`` and journals each one; ``progress`` hears of every journalled trial."""
 
     def __init__(self, objective: MavlinkObjective, journal: Journal, progress: Callable[[TrialEvent], None],
-                 log: Callable[[str], None]) -> None:
+                 log: Callable[[str], None], guard: BatteryGuard | None = None) -> None:
         self.objective, self.journal, self.progress, self.log = objective, journal, progress, log
+        self.guard = guard  # refuses a trial the pack would not fit (CampaignPaused), reports its use
 
     def fly(self, x: np.ndarray, kind: str, stress: bool = False) -> Flight:
         """One trial of journal ``kind``, journalled; flown again (up to :data:`RETRIES` times) when this computer
         or the link spoiled it. :class:`TrialStopped` for a trial that must end the campaign."""
         for attempt in range(RETRIES + 1):
+            if self.guard is not None:
+                self.guard.before_trial()
             try:
                 return self._fly_once(x, kind, stress)
             except TrialStopped as exc:
@@ -46,11 +50,15 @@ class TrialLoop:
         except (TrialStopped, TrialInterrupted) as exc:
             f = exc.flight
             if not journal.has_trial(f.meta["trial"]):
-                # A crash of a real vehicle is the gains' doing; anything else that stops a trial is not.
+                # A crash of a real vehicle is the gains' doing; anything else that stops a trial (a failsafe, the
+                # pilot, the link) is not: recorded as interrupted, never given to the optimiser.
                 journal.append(JournalEntry.of(kind if f.outcome == "crash" else "failed", f))
             raise
         journal.append(JournalEntry.of(kind, f))
         self.progress(TrialEvent.of(kind, f, journal))
+        line = self.guard.after_trial() if self.guard is not None else None
+        if line:
+            self.log(line)
         return f
 
     def evaluate(self, x: np.ndarray, stress: bool = False) -> Evaluation:

@@ -11,7 +11,7 @@ import argparse
 import importlib
 import sys
 
-from ksbo_mav.errors import KsboError
+from ksbo_mav.errors import CampaignPaused, KsboError
 from ksbo_sim.errors import SimError
 
 #: Command modules, in the order `--help` lists them.
@@ -44,6 +44,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
+    except CampaignPaused as exc:  # a pack to swap, a failsafe: a normal stop, resumable
+        print(f"stopped: {exc}", file=sys.stderr)
+        return 3
     except (KsboError, SimError) as exc:  # the simulator's errors are the user's to fix too
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -63,9 +63,11 @@ class Monitor:
             return None
         if not hb.base_mode & 128:
             return TrialOutcome.CRASH, "vehicle disarmed in flight"
-        if hb.system_status >= 5:  # MAV_STATE_CRITICAL (a failsafe) or EMERGENCY: the autopilot took over
-            state = "emergency" if hb.system_status >= 6 else "failsafe (critical)"
-            return TrialOutcome.CRASH, f"vehicle in {state}, system_status {hb.system_status}"
+        if hb.system_status >= 6:  # MAV_STATE_EMERGENCY: the vehicle is going down
+            return TrialOutcome.CRASH, f"vehicle in emergency, system_status {hb.system_status}"
+        if hb.system_status == 5:  # MAV_STATE_CRITICAL: a failsafe (battery, radio, GCS) took over, not the gains
+            return TrialOutcome.FAILSAFE, f"the autopilot's failsafe took over (system_status {hb.system_status}, " \
+                f"custom mode {hb.custom_mode})"
         if hb.custom_mode != self.guided_mode:
             return TrialOutcome.PILOT, f"mode changed to {hb.custom_mode} by someone else"
         return None

@@ -20,6 +20,7 @@ class TrialOutcome(str, Enum):
     CRASH = "crash"
     VERIFY = "verify"
     PILOT = "pilot"
+    FAILSAFE = "failsafe"
     LINK = "link"
     TELEMETRY = "telemetry"
     CLIENT = "client"
@@ -67,6 +68,7 @@ _TEXT = {
     TrialOutcome.CRASH: "vehicle reported a crash / disarmed",
     TrialOutcome.VERIFY: "parameter write not verified",
     TrialOutcome.PILOT: "pilot changed the mode",
+    TrialOutcome.FAILSAFE: "the autopilot's failsafe took over (battery, radio or another; not the gains)",
     TrialOutcome.LINK: "link lost (no heartbeat / telemetry)",
     TrialOutcome.TELEMETRY: "telemetry too sparse to score",
     TrialOutcome.CLIENT: "the tuner fell behind the vehicle",

@@ -187,7 +187,7 @@ class TrialFlight:
                     v.link.pump(0.2)
             if rec.t0 is not None:
                 v.statustext(end_text(self.mission.tag, L, outcome))
-            ours = outcome not in (T.PILOT, T.CRASH, T.LINK) and g.armed
+            ours = outcome not in (T.PILOT, T.CRASH, T.LINK, T.FAILSAFE) and g.armed  # never override a failsafe
             if ours and g.position() is not None and outcome is not T.OK:
                 g.hold_at(g.position())  # stop where we are: position-only targets never time out
             flying = g.armed
@@ -207,7 +207,7 @@ class TrialFlight:
                     late = (T.CRASH, f"{bad[1]} right after the trial, as the baseline gains took over")
                     if rec.t0 is not None:
                         v.statustext(after_text(self.mission.tag, T.CRASH))
-            if g.armed and g.in_mode("guided"):
+            if g.armed and g.in_mode("guided") and outcome is not T.FAILSAFE:
                 g.park()
             return True, late
         except KeyboardInterrupt:

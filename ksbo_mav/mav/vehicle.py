@@ -27,6 +27,7 @@ from ksbo_mav.mav.link import Endpoint, Link
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.param_ftp import CAPABILITY_FTP
 from ksbo_mav.mav.params import ParamClient
+from ksbo_mav.mav.power import PowerWatch
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
 from ksbo_mav.mav.telemetry import Telemetry
 from ksbo_mav.mav.wire import mavlink
@@ -46,6 +47,7 @@ class Vehicle:
         self.tuning = GainService(params, profile, gain_map)
         self.telemetry = Telemetry(link, cmd, self.mission.rate_hz)
         self.guided = Guided(link, cmd, stack, self.telemetry, self.heartbeat_timeout, self.lockstep)
+        self.power = PowerWatch(link)  # battery figures and the vehicle's STATUSTEXTs
 
     # --- preflight -----------------------------------------------------------------------------------------
     @classmethod
