@@ -116,3 +116,42 @@ def test_arming_refused_is_one_clear_line_and_nothing_recorded(tmp_path):
         assert not armed and not param_diff(d, now)
     finally:
         sitl.stop()
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(1800)
+def test_a_finite_battery_stops_the_campaign_safely_and_resume_completes_it(tmp_path):
+    """ArduCopter SITL with a small pack (SIM_BATT_CAP_AH, BATT_CAPACITY) and its low-battery failsafe set to RTL:
+    the campaign stops for the battery (before a trial the pack would not fit, or when the failsafe fires: then the
+    trial is interrupted, not a crash), ends disarmed with every parameter equal to the snapshot; after a swap (the
+    SITL restarted, a full pack) `--resume` completes the budget."""
+    from conftest import sitl_or_skip
+
+    d = tmp_path / "battery"
+    sitl = sitl_or_skip("ardupilot", 10)
+    try:
+        for name, value in (("SIM_BATT_CAP_AH", 0.6), ("BATT_CAPACITY", 600), ("BATT_LOW_MAH", 150),
+                            ("BATT_FS_LOW_ACT", 2)):
+            sitl.set_param(name, value)
+        r = tune(sitl, d, "--budget", "12")
+        assert r.returncode == 3, r.stderr[-3000:]
+        last = r.stderr.strip().splitlines()[-1]
+        assert last.startswith("stopped: battery: ") and "`ksbo-mav tune --resume" in last, last
+        entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
+        assert all(e["outcome"] != "crash" for e in entries)
+        assert all(e["outcome"] == "failsafe" for e in entries if e["kind"] == "failed")
+        time.sleep(2)
+        now, armed = read_all(sitl, PROFILE)
+        assert not armed and not param_diff(d, now)
+    finally:
+        sitl.stop()
+    sitl = sitl_or_skip("ardupilot", 10)  # the swap: a fresh SITL, a full (default) pack
+    try:
+        r = tool("tune", "--resume", str(d), *sitl.cli_args)
+        assert r.returncode == 0, r.stderr[-3000:]
+        now, armed = read_all(sitl, PROFILE)
+        assert not armed
+    finally:
+        sitl.stop()
+    entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
+    assert len([e for e in entries if e["kind"] == "opt"]) >= 12

@@ -31,6 +31,7 @@ class CampaignConfig:
     n_prior: int = 0  # 0 = default for the prior kind
     confirm: int = 1
     widen: bool = False  # extend a search-box bound the recommendation ends on (ksbo_mav.campaign.widen)
+    baseline_every: int = 10  # re-fly the baseline after this many optimiser trials, drift test (0: never)
     accept: bool = False
     end: str = "land"  # "land" or "hold"
     settle_s: float = 1.0
@@ -47,7 +48,7 @@ class CampaignConfig:
 
         if self.method not in METHODS:
             raise InputError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
-        for name, lo in (("budget", 1), ("confirm", 0), ("n_prior", 0)):
+        for name, lo in (("budget", 1), ("confirm", 0), ("n_prior", 0), ("baseline_every", 0)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
                 raise InputError(f"{name} must be an integer >= {lo}, got {v!r}")

@@ -17,7 +17,7 @@ from ksbo_mav.errors import InputError
 from ksbo_mav.mav.outcome import TrialOutcome
 from ksbo_mav.objective import Flight
 
-KINDS = ("opt", "prior", "confirm", "failed")
+KINDS = ("opt", "prior", "confirm", "failed", "baseline")
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,8 @@ from ksbo_mav.campaign.layout import CampaignDir
 #: The four ways safety is counted (never lumped together).
 SAFETY = ("unsafe (P < 0)", "aborted by the monitor", "crashed", "interrupted (not the gains)")
 #: Role of each journal kind when nothing more specific applies.
-ROLE = {"opt": "optimiser", "prior": "prior", "confirm": "confirmation", "failed": "interrupted"}
+ROLE = {"opt": "optimiser", "prior": "prior", "confirm": "confirmation", "failed": "interrupted",
+        "baseline": "baseline re-flight"}
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ksbo_mav.campaign.battery import BatteryGuard
+from ksbo_mav.campaign.drift import DriftWatch
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.summary import TrialEvent
 from ksbo_mav.errors import TrialInterrupted, TrialStopped, VehicleError
@@ -26,6 +27,8 @@ class TrialLoop:
                  log: Callable[[str], None], guard: BatteryGuard | None = None) -> None:
         self.objective, self.journal, self.progress, self.log = objective, journal, progress, log
         self.guard = guard  # refuses a trial the pack would not fit (CampaignPaused), reports its use
+        self.drift: DriftWatch | None = None  # baseline re-flights at a cadence and the drift test on them
+        self.x0: np.ndarray | None = None
 
     def fly(self, x: np.ndarray, kind: str, stress: bool = False) -> Flight:
         """One trial of journal ``kind``, journalled; flown again (up to :data:`RETRIES` times) when this computer
@@ -64,6 +67,10 @@ class TrialLoop:
     def evaluate(self, x: np.ndarray, stress: bool = False) -> Evaluation:
         """An optimiser evaluation: a flown trial, with the monitor's aborts and crashes as censored outcomes
         (``stress``: from the hardest start, for the re-fly phase's ``refly_stress``)."""
+        if self.drift is not None and self.x0 is not None and self.drift.due(self.journal):
+            self.log("trial: the baseline gains again (is the vehicle still the one the campaign started with?)")
+            self.fly(self.x0, "baseline")
+            self.drift.check(self.journal)  # CampaignPaused when the vehicle changed
         f = self.fly(x, "opt", stress)
         return Evaluation(f.P, f.outcome.evaluation)
 
@@ -71,6 +78,7 @@ class TrialLoop:
         """Fly the baseline gains first (answered from the journal when the optimiser asks for x0): every 3-D
         score is relative to this flight's tracking (:meth:`ksbo_mav.mav.mission.Mission.score`). Returns its
         trial number; VehicleError if the baseline flew unsafe."""
+        self.x0 = np.asarray(x0, dtype=float)
         opt = self.journal.of("opt")
         if not opt:
             self.log("trial: baseline gains (the reference every score is measured against)")

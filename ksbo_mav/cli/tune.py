@@ -49,6 +49,10 @@ def add_parser(subparsers) -> None:
                         "Every option with its default and allowed values: docs/options.md (an unknown KEY prints "
                         "the list)")
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
+    p.add_argument("--baseline-every", type=int, metavar="N",
+                   help="re-fly the baseline gains after every N optimiser trials and test whether the vehicle "
+                        "changed (drift): if its tracking at the same gains got clearly worse, land and stop, "
+                        "resumable (default 10; 0: never)")
     p.add_argument("--widen", action="store_const", const=True, help="when the recommendation ends on a bound of "
                    "the search box, move that bound out stepwise (never past the gain's documented range) and search "
                    "on from the recommendation; as the profile's [trust_region] widen = true (docs/profiles.md)")
@@ -114,7 +118,7 @@ def config_from_args(args: argparse.Namespace):
         given["options"] = dict(option_arg(o) for o in args.option)  # they define the campaign too
     # --end has a default, so it is always given; --accept only turns accepting on.
     resumable = {"end": args.end, **({"accept": True} if args.accept else {}),
-                 **{k: getattr(args, k) for k in ("sysid", "compid") if getattr(args, k) is not None}}
+                 **{k: getattr(args, k) for k in ("sysid", "compid", "baseline_every") if getattr(args, k) is not None}}
     if args.resume:
         if args.dir:
             raise InputError("give either DIR (a new campaign) or --resume DIR, not both")

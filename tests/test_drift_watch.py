@@ -1,0 +1,73 @@
+"""Baseline re-flights and the drift test: the watch on a campaign journal written here (the lap-2 RMS of the 3-D
+figure-8s, the P of the planar task), and a campaign on our static simulator (its process, loopback UDP) that
+re-flies the baseline at the cadence, never gives those flights to the optimiser and does not fire."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from mav_tune_helpers import baseline, fresh_read, sim_and_endpoint
+
+from ksbo_mav.campaign.drift import DriftWatch
+from ksbo_mav.campaign.journal import Journal, JournalEntry
+from ksbo_mav.cli import main
+from ksbo_mav.errors import CampaignPaused
+from ksbo_mav.mav.outcome import TrialOutcome
+
+
+def _journal(tmp_path, flights: list[tuple[str, float, float | None]]) -> Journal:
+    j = Journal(tmp_path / "journal.jsonl")
+    for n, (kind, P, rms) in enumerate(flights):
+        j.append(JournalEntry(kind, n, (0.0,), P, TrialOutcome.OK, f"trials/trial_{n:03d}.json", True, rms))
+    return j
+
+
+def test_a_vehicle_that_got_worse_at_the_same_gains_is_said_plainly(tmp_path) -> None:
+    # the baseline at 0.21 m, optimiser trials, then the baseline again at 0.53 m: the vehicle changed
+    flights = [("opt", 0.5, 0.21)] + [("opt", 0.4, 0.3)] * 9 + [("baseline", -0.3, 0.53)]
+    watch = DriftWatch(every=9, resume_hint="ksbo-mav tune --resume camp --udp 127.0.0.1:14550")
+    j = _journal(tmp_path, flights[:10])
+    assert watch.due(j)
+    (tmp_path / "x").mkdir()
+    j = _journal(tmp_path / "x", flights)
+    with pytest.raises(CampaignPaused) as exc:
+        watch.check(j)
+    msg = str(exc.value)
+    assert msg.startswith("drift: at the baseline gains the lap-2 RMS went from 0.21 m to 0.53 m over 10 flights")
+    assert "the gains did not cause this" in msg and msg.endswith("`ksbo-mav tune --resume camp --udp 127.0.0.1:14550`")
+    assert not watch.due(j)  # the re-flight just flown restarts the count
+
+
+def test_the_same_vehicle_within_its_noise_does_not_fire(tmp_path) -> None:
+    watch = DriftWatch(every=5)
+    watch.check(_journal(tmp_path, [("opt", 0.5, 0.21)] + [("opt", 0.6, 0.2)] * 5 + [("baseline", 0.45, 0.24)]))
+    (tmp_path / "p").mkdir()  # the planar task: no RMS, P within the drop allowed
+    watch.check(_journal(tmp_path / "p", [("opt", 0.20, None)] + [("opt", 0.8, None)] * 5 + [("baseline", 0.15, None)]))
+    (tmp_path / "q").mkdir()
+    with pytest.raises(CampaignPaused, match="the score P went from 0.200 to 0.020"):
+        watch.check(_journal(tmp_path / "q", [("opt", 0.20, None)] + [("opt", 0.8, None)] * 5
+                             + [("baseline", 0.02, None)]))
+
+
+@pytest.mark.network
+@pytest.mark.timeout(600)
+def test_a_static_vehicle_is_re_flown_at_the_cadence_and_the_campaign_goes_on(tmp_path, capsys) -> None:
+    d = tmp_path / "camp"
+    with sim_and_endpoint() as (sim, ep):
+        rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--profile", "sim-planar", "--budget", "12",
+                   "--baseline-every", "5"])
+        err = capsys.readouterr().err
+        assert rc == 0, err
+        assert fresh_read(sim) == baseline()
+    entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
+    kinds = [e["kind"] for e in entries]
+    opt = [e for e in entries if e["kind"] == "opt"]
+    assert len(opt) == 12  # the budget: the re-flights are not optimiser trials
+    again = [e for e in entries if e["kind"] == "baseline"]
+    assert len(again) == 2 and all(e["x"] == opt[0]["x"] for e in again)
+    assert kinds.index("baseline") == 6  # the baseline, 5 optimiser trials, then the baseline again
+    assert "drift" not in err and err.count("the baseline gains again") == 2
+    page = (d / "report" / "index.html").read_text()
+    assert "baseline re-flight" in page
