@@ -218,3 +218,27 @@ def test_a_link_that_carries_the_mission_passes_and_its_figures_are_kept(tmp_pat
 
     doc = json.loads((d.root / "link.json").read_text())
     assert len(doc) == 2 and doc[0]["rates_hz"]["LOCAL_POSITION_NED"] >= 40
+
+
+@pytest.mark.network
+def test_a_campaign_flies_at_the_rate_asked_and_a_resume_keeps_it(tmp_path) -> None:
+    """`--rate 25`: the trials stream setpoints and ask telemetry at 25 Hz, the rate is stored with the campaign
+    and a resume flies it again (the profile's mission is otherwise unchanged)."""
+    import json
+
+    from mav_tune_helpers import sim_and_endpoint
+
+    from ksbo_mav.cli import main
+    from ksbo_mav.mav.tlog import read_tlog
+    from ksbo_mav.mav.trajectory import trajectory_from_tlog
+
+    d = tmp_path / "camp"
+    with sim_and_endpoint() as (sim, ep):
+        assert main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--profile", "sim-planar", "--budget", "1",
+                     "--rate", "25", "--confirm", "0"]) == 0
+        assert json.loads((d / "campaign.json").read_text())["mission"]["rate_hz"] == 25
+        assert main(["tune", "--resume", str(d), "--udp", f"127.0.0.1:{ep.port}"]) == 0
+    for tlog in sorted((d / "trials").glob("trial_*.tlog")):
+        _, _, rec = trajectory_from_tlog(read_tlog(tlog))
+        assert rec.dt == 40  # ms between setpoints
+    assert main(["tune", str(tmp_path / "x"), "--udp", "127.0.0.1:9", "--rate", "30"]) == 2

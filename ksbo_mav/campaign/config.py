@@ -32,6 +32,7 @@ class CampaignConfig:
     confirm: int = 1
     widen: bool = False  # extend a search-box bound the recommendation ends on (ksbo_mav.campaign.widen)
     baseline_every: int = 10  # re-fly the baseline after this many optimiser trials, drift test (0: never)
+    rate_hz: int | None = None  # mission rate (setpoints and telemetry); None: the profile's, lowered by the link check
     accept: bool = False
     end: str = "land"  # "land" or "hold"
     settle_s: float = 1.0
@@ -62,6 +63,8 @@ class CampaignConfig:
             v = getattr(self, name)
             if v is not None and not 1 <= v <= 255:
                 raise InputError(f"--{name} must be in 1..255, got {v}")
+        if self.rate_hz is not None and (isinstance(self.rate_hz, bool) or self.rate_hz not in (50, 25, 20, 10)):
+            raise InputError(f"--rate must be 50, 25, 20 or 10 (Hz), got {self.rate_hz!r}")
         if not self.settle_s >= 0:
             raise InputError(f"settle_s must be >= 0, got {self.settle_s}")
         if self.profile is not None:

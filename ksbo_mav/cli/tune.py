@@ -9,7 +9,7 @@ from ksbo_mav.cli.common import add_connection_args, endpoint_from_args, positiv
 from ksbo_mav.errors import InputError
 
 #: Options that define a campaign; on --resume, one given with a different value than stored is refused.
-_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen")
+_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen", "rate_hz")
 
 
 def add_parser(subparsers) -> None:
@@ -49,6 +49,10 @@ def add_parser(subparsers) -> None:
                         "Every option with its default and allowed values: docs/options.md (an unknown KEY prints "
                         "the list)")
     p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
+    p.add_argument("--rate", dest="rate_hz", type=int, metavar="HZ",
+                   help="fly the mission at HZ (50, 25, 20 or 10: setpoints with feed-forward and telemetry alike) "
+                        "instead of the profile's rate; without it the link check lowers the rate by itself when "
+                        "the link cannot carry the profile's (docs/links.md)")
     p.add_argument("--baseline-every", type=int, metavar="N",
                    help="re-fly the baseline gains after every N optimiser trials and test whether the vehicle "
                         "changed (drift): if its tracking at the same gains got clearly worse, land and stop, "
