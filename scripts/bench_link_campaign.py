@@ -24,7 +24,7 @@ from pathlib import Path
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import machine, write_result  # noqa: E402
+from _bench_common import BENCH, machine, write_result  # noqa: E402
 from bench_sitl_campaign import changed_params, endpoint  # noqa: E402
 
 from ksbo_sim.linkproc import LinkEmulator  # noqa: E402
@@ -34,7 +34,7 @@ from ksbo_sim.sitl import start_sitl  # noqa: E402
 RADIO = "down=4000,up=2000,queue=1024,loss=0.05,latency=0.02,seed=1"
 
 
-def run_one(kind: str, budget: int, shape: str, instance: int) -> dict:
+def run_one(kind: str, budget: int, shape: str, instance: int, rate: int | None = None) -> dict:
     work = Path(tempfile.mkdtemp(prefix=f"bench-link-{kind}-"))
     sitl = start_sitl(kind, instance=instance, speedup=1.0, workdir=work / "sitl")
     try:
@@ -48,15 +48,16 @@ def run_one(kind: str, budget: int, shape: str, instance: int) -> dict:
         t0 = time.time()
         try:
             r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp", f"127.0.0.1:{gport}",
-                                "--budget", str(budget), "--json"], capture_output=True, text=True, timeout=7200)
+                                "--budget", str(budget), "--json", *(["--rate", str(rate)] if rate else [])],
+                               capture_output=True, text=True, timeout=7200)
         finally:
             stats = emu.stop()
         wall = time.time() - t0
         log = r.stderr
         params = re.search(r"parameters: (\d+) of (\d+) downloaded in ([\d.]+) s \(([^)]*)\)", log)
-        rate = re.search(r"link: flying at (\d+) Hz", log)
-        row = {"kind": kind, "rc": r.returncode, "wall_s": wall,
-               "params": params.groups() if params else None, "rate_hz": int(rate.group(1)) if rate else 50,
+        lowered = re.search(r"link: flying at (\d+) Hz", log)
+        row = {"kind": kind, "rc": r.returncode, "wall_s": wall, "params": params.groups() if params else None,
+               "rate_hz": rate or (int(lowered.group(1)) if lowered else 50),
                "emulator": stats, "link_lost": log.count("link lost")}
         if r.returncode != 0:
             row["error"] = (log.strip().splitlines() or ["?"])[-1][:200]
@@ -76,12 +77,14 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--budget", type=int, default=10)
     ap.add_argument("--stacks", nargs="+", default=["ardupilot", "px4"], choices=["ardupilot", "px4"])
+    ap.add_argument("--rate", type=int, default=None, help="pass `--rate HZ` to tune (default: the profile's)")
     ap.add_argument("--shape", default=RADIO, help=f"link emulator shape (default {RADIO})")
     ap.add_argument("--no-write", action="store_true", help="print only, do not write results.md")
+    ap.add_argument("--append", action="store_true", help="keep the tables already in results.md below this one")
     a = ap.parse_args()
     rows = []
     for i, kind in enumerate(a.stacks):
-        rows.append(run_one(kind, a.budget, a.shape, instance=4 + i))
+        rows.append(run_one(kind, a.budget, a.shape, instance=4 + i, rate=a.rate))
         print(json.dumps(rows[-1], default=str), flush=True)
     table = ["| stack | exit | parameters (got of n, s, path) | rate flown | flights | aborted | unsafe | interrupted "
              "| 'link lost' | campaign wall (s) | params left changed | frames lost / dropped by the buffer (down) |",
@@ -95,7 +98,8 @@ def main() -> int:
                      f"| {r.get('interrupted', '-')} | {r['link_lost']} | {r['wall_s']:.0f} | "
                      f"{len(r['changed_params'])} {', '.join(r['changed_params'][:5])} | "
                      f"{dn.get('lost', '?')} / {dn.get('dropped', '?')} |")
-    cmd = f"python scripts/bench_link_campaign.py --budget {a.budget} --shape {a.shape}"
+    cmd = f"python scripts/bench_link_campaign.py --budget {a.budget} --shape {a.shape}" + (
+        f" --rate {a.rate}" if a.rate else "")
     body = f"""Machine: {machine()}. Script: `{cmd}`.
 
 ## `tune --budget {a.budget}` from the ground through a radio-like link
@@ -109,7 +113,9 @@ snapshot (the autopilot's own calibration parameters excluded).
 """
     print(body)
     if not a.no_write:
-        write_result("link-campaign", body)
+        out = BENCH / "link-campaign" / "results.md"
+        keep = "\n" + out.read_text() if a.append and out.exists() else ""
+        write_result("link-campaign", body + keep)
     return 0
 
 
