@@ -25,30 +25,62 @@ def _journal(tmp_path, flights: list[tuple[str, float, float | None]]) -> Journa
 
 
 def test_a_vehicle_that_got_worse_at_the_same_gains_is_said_plainly(tmp_path) -> None:
-    # the baseline at 0.21 m, optimiser trials, then the baseline again at 0.53 m: the vehicle changed
+    # the baseline at 0.21 m, optimiser trials, then the baseline again at 0.53 m, confirmed at once: it changed
     flights = [("opt", 0.5, 0.21)] + [("opt", 0.4, 0.3)] * 9 + [("baseline", -0.3, 0.53)]
     watch = DriftWatch(every=9, resume_hint="ksbo-mav tune --resume camp --udp 127.0.0.1:14550")
     j = _journal(tmp_path, flights[:10])
     assert watch.due(j)
     (tmp_path / "x").mkdir()
     j = _journal(tmp_path / "x", flights)
+    assert watch.shows_change(j)
+    (tmp_path / "y").mkdir()
+    j = _journal(tmp_path / "y", flights + [("baseline", -0.3, 0.53)])
     with pytest.raises(CampaignPaused) as exc:
-        watch.check(j)
+        watch.confirm(j)
     msg = str(exc.value)
-    assert msg.startswith("drift: at the baseline gains the lap-2 RMS went from 0.21 m to 0.53 m over 10 flights")
+    assert msg.startswith("drift: at the baseline gains the lap-2 RMS went from 0.21 m to 0.53 m over 11 flights")
     assert "the gains did not cause this" in msg and msg.endswith("`ksbo-mav tune --resume camp --udp 127.0.0.1:14550`")
     assert not watch.due(j)  # the re-flight just flown restarts the count
 
 
 def test_the_same_vehicle_within_its_noise_does_not_fire(tmp_path) -> None:
     watch = DriftWatch(every=5)
-    watch.check(_journal(tmp_path, [("opt", 0.5, 0.21)] + [("opt", 0.6, 0.2)] * 5 + [("baseline", 0.45, 0.24)]))
+    assert not watch.shows_change(_journal(tmp_path, [("opt", 0.5, 0.21)] + [("opt", 0.6, 0.2)] * 5
+                                           + [("baseline", 0.45, 0.24)]))
     (tmp_path / "p").mkdir()  # the planar task: no RMS, P within the drop allowed
-    watch.check(_journal(tmp_path / "p", [("opt", 0.20, None)] + [("opt", 0.8, None)] * 5 + [("baseline", 0.15, None)]))
+    assert not watch.shows_change(_journal(tmp_path / "p", [("opt", 0.20, None)] + [("opt", 0.8, None)] * 5
+                                           + [("baseline", 0.15, None)]))
     (tmp_path / "q").mkdir()
+    j = _journal(tmp_path / "q", [("opt", 0.20, None)] + [("opt", 0.8, None)] * 5 + [("baseline", 0.02, None)] * 2)
     with pytest.raises(CampaignPaused, match="the score P went from 0.200 to 0.020"):
-        watch.check(_journal(tmp_path / "q", [("opt", 0.20, None)] + [("opt", 0.8, None)] * 5
-                             + [("baseline", 0.02, None)]))
+        watch.confirm(j)
+
+
+def test_noisy_re_flights_raise_the_threshold_and_a_trend_does_not(tmp_path) -> None:
+    watch = DriftWatch()
+    noisy = [("opt", 0.5, 0.20), ("baseline", 0.5, 0.26), ("baseline", 0.5, 0.17), ("baseline", 0.5, 0.27),
+             ("baseline", 0.5, 0.18), ("baseline", 0.5, 0.27)]
+    j = _journal(tmp_path, noisy)
+    assert watch.threshold(j) > 0.35 and not watch.shows_change(j)  # 0.27 m is within this vehicle's noise
+    (tmp_path / "t").mkdir()
+    trend = [("opt", 0.5, 0.20), ("baseline", 0.5, 0.22), ("baseline", 0.5, 0.24), ("baseline", 0.5, 0.26),
+             ("baseline", 0.5, 0.28)]
+    j = _journal(tmp_path / "t", trend)
+    assert watch.threshold(j) == pytest.approx(0.25) and watch.shows_change(j)  # a steady rise is not noise
+
+
+def test_continue_mode_scores_against_the_baseline_as_last_re_flown(tmp_path) -> None:
+    watch = DriftWatch(on_drift="continue")
+    j = _journal(tmp_path, [("opt", 0.5, 0.20)] + [("opt", 0.6, 0.2)] * 3 + [("baseline", 0.0, 0.40)] * 2)
+    watch.confirm(j)
+    assert watch.fired and "from 0.20 m to 0.40 m" in watch.fired and watch.ref is not None
+    # 0.45 m would be unsafe against the first flight (P < 0); against the baseline now it is near the baseline
+    assert watch.corrected(j, 1 - 0.45 / 0.4, 0.45, 2.0) == pytest.approx(1 - 0.45 / 0.8)
+    (tmp_path / "p").mkdir()
+    j = _journal(tmp_path / "p", [("opt", 0.3, None)] + [("opt", 0.6, None)] * 3 + [("baseline", 0.1, None)] * 2)
+    watch = DriftWatch(on_drift="continue")
+    watch.confirm(j)
+    assert watch.corrected(j, -0.05, None, 2.0) == pytest.approx(0.15)
 
 
 @pytest.mark.network

@@ -31,7 +31,8 @@ class CampaignConfig:
     n_prior: int = 0  # 0 = default for the prior kind
     confirm: int = 1
     widen: bool = False  # extend a search-box bound the recommendation ends on (ksbo_mav.campaign.widen)
-    baseline_every: int = 10  # re-fly the baseline after this many optimiser trials, drift test (0: never)
+    baseline_every: int = 7  # re-fly the baseline after this many optimiser trials, drift test (0: never)
+    on_drift: str = "stop"  # when the drift test fires: "stop" (land, resumable) or "continue" (corrected scores)
     rate_hz: int | None = None  # mission rate (setpoints and telemetry); None: the profile's, lowered by the link check
     accept: bool = False
     end: str = "land"  # "land" or "hold"
@@ -49,6 +50,8 @@ class CampaignConfig:
 
         if self.method not in METHODS:
             raise InputError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
+        if self.on_drift not in ("stop", "continue"):
+            raise InputError(f"on_drift must be stop or continue, got {self.on_drift!r}")
         for name, lo in (("budget", 1), ("confirm", 0), ("n_prior", 0), ("baseline_every", 0)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:

@@ -2,28 +2,51 @@
 
 Every :attr:`DriftWatch.every` optimiser trials the campaign flies the baseline gains again (journal kind
 ``baseline``: never given to the optimiser). The first baseline flight is the reference of every score, so the
-re-flights say whether the vehicle still answers the same gains the same way. The test compares the newest
-re-flight with that first flight: the lap-2 RMS more than :attr:`DriftWatch.rms_ratio` times the first (the 3-D
-figure-8s; re-flights of the same gains on ArduCopter SITL spread by about 5 %), or, where the score has no RMS
-(the planar task), P lower by more than :attr:`DriftWatch.p_drop`. When it fires, the vehicle changed, not the
-gains: the campaign stops in a safe state (baseline restored, landed, report written) and says so with the
-numbers, to be resumed after a check of the vehicle (battery, propellers, payload, wind).
+re-flights say whether the vehicle still answers the same gains the same way.
+
+The test is one-sided and robust. Each baseline flight's change from the first is ``d = rms / rms_first - 1``
+(the 3-D figure-8s, lap-2 RMS) or ``d = P_first - P`` (the planar task, which has no RMS). The re-flight noise
+``s`` is estimated from the successive differences of the re-flights (1.4826 x their median absolute deviation
+/ sqrt 2: a steady trend does not inflate it). The newest re-flight shows a change when ``d`` exceeds
+``max(floor, 3 s)``; the floor is :attr:`DriftWatch.rms_ratio` - 1 (re-flights of the same gains on ArduCopter
+SITL spread by about 5 %) or :attr:`DriftWatch.p_drop`. A change is then confirmed by flying the baseline again
+at once: only when that flight shows it too does the test fire. When it fires, the vehicle changed, not the
+gains, and the campaign says so with the numbers. By default (``on_drift = "stop"``) it stops in a safe state
+(baseline restored, landed, report written), to be resumed after a check of the vehicle. With ``"continue"`` it
+goes on with drift-corrected scores (:meth:`DriftWatch.corrected`): each trial is scored against the baseline
+as last re-flown (held between re-flights), not against the first flight.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
-from ksbo_mav.campaign.journal import Journal
-from ksbo_mav.errors import CampaignPaused
+import numpy as np
+
+from ksbo_mav.campaign.journal import Journal, JournalEntry
+from ksbo_mav.errors import CampaignPaused, InputError
+
+ON_DRIFT = ("stop", "continue")
+#: Gaussian consistency of the median absolute deviation.
+MAD_SIGMA = 1.4826
 
 
 @dataclass
 class DriftWatch:
-    every: int = 10  # optimiser trials between baseline re-flights (<= 10 % of the budget)
+    every: int = 7  # optimiser trials between baseline re-flights (about 1 in 8 flights; 0: never)
     rms_ratio: float = 1.25
     p_drop: float = 0.10
+    k_noise: float = 3.0
+    on_drift: str = "stop"
     resume_hint: str = "ksbo-mav tune --resume DIR"
+    fired: str | None = None  # the plain-words message, once the test has fired (continue mode goes on)
+    ref: JournalEntry | None = None  # the baseline flight trials are scored against (continue mode, after firing)
+    levels: list[tuple[int, float]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if self.on_drift not in ON_DRIFT:
+            raise InputError(f"on_drift must be one of {', '.join(ON_DRIFT)}, got {self.on_drift!r}")
 
     def due(self, journal: Journal) -> bool:
         """A baseline re-flight is due: ``every`` optimiser trials since the baseline or its last re-flight."""
@@ -33,21 +56,77 @@ class DriftWatch:
         last = max([opt[0].trial, *(e.trial for e in journal.of("baseline"))])
         return sum(e.trial > last for e in opt) >= self.every
 
-    def check(self, journal: Journal) -> None:
-        """CampaignPaused, in plain words with the numbers, when the newest re-flight shows the vehicle changed."""
-        first, again = journal.of("opt")[0], journal.of("baseline")
-        if not again or again[-1].outcome != "ok":
-            return
-        last = again[-1]
-        flights = last.trial - first.trial
+    @staticmethod
+    def flights(journal: Journal) -> list[JournalEntry]:
+        """The first baseline flight and every re-flight that flew to the end, in order."""
+        opt = journal.of("opt")
+        return opt[:1] + [e for e in journal.of("baseline") if e.outcome == "ok"]
+
+    @staticmethod
+    def change(first: JournalEntry, e: JournalEntry) -> float:
+        """How much worse ``e`` tracked than ``first`` (relative RMS rise, or P drop without RMS)."""
+        if first.rms is not None and e.rms is not None and first.rms > 0:
+            return e.rms / first.rms - 1.0
+        return first.P - e.P
+
+    def threshold(self, journal: Journal) -> float:
+        """The change the newest re-flight must exceed: the floor, or 3 x the re-flight noise if larger."""
+        b = self.flights(journal)
+        floor = self.rms_ratio - 1.0 if b and b[0].rms is not None else self.p_drop
+        d = np.array([self.change(b[0], e) for e in b])
+        steps = np.diff(d[:-1])  # the newest is tested, not used for its own noise
+        if len(steps) < 2:
+            return floor
+        s = MAD_SIGMA * float(np.median(np.abs(steps - np.median(steps)))) / math.sqrt(2.0)
+        return max(floor, self.k_noise * s)
+
+    def shows_change(self, journal: Journal) -> bool:
+        """The newest baseline re-flight tracked worse than the first baseline flight by more than the threshold."""
+        b = self.flights(journal)
+        if len(b) < 2 or journal.of("baseline")[-1] is not b[-1]:
+            return False
+        return self.change(b[0], b[-1]) > self.threshold(journal)
+
+    def message(self, journal: Journal) -> str:
+        b = self.flights(journal)
+        first, last = b[0], b[-1]
         if first.rms is not None and last.rms is not None:
-            if last.rms <= self.rms_ratio * first.rms:
-                return
             what = f"the lap-2 RMS went from {first.rms:.2f} m to {last.rms:.2f} m"
         else:
-            if last.P >= first.P - self.p_drop:
-                return
             what = f"the score P went from {first.P:.3f} to {last.P:.3f}"
-        raise CampaignPaused(f"drift: at the baseline gains {what} over {flights} flights (trial {last.trial}); the "
-                             "gains did not cause this, the vehicle or its conditions changed (battery, propellers, "
-                             f"payload, wind): check the vehicle, then `{self.resume_hint}`")
+        return (f"drift: at the baseline gains {what} over {last.trial - first.trial} flights (trial {last.trial}, "
+                f"re-flown twice; test threshold {self.threshold(journal):.2f}); the gains did not cause this, the "
+                "vehicle or its conditions changed (battery, propellers, payload, wind)")
+
+    def confirm(self, journal: Journal) -> None:
+        """The confirming re-flight has flown: fire when it shows the change too. Stop mode: CampaignPaused with
+        the message; continue mode: the message kept in :attr:`fired` and the reference moved to this flight."""
+        if not self.shows_change(journal):
+            return
+        msg = self.message(journal)
+        if self.on_drift == "stop":
+            raise CampaignPaused(f"{msg}: check the vehicle, then `{self.resume_hint}`")
+        self.fired = msg
+        self.follow(journal)
+
+    def restore(self, journal: Journal) -> None:
+        """A resumed campaign: continue mode goes on against the re-flight its last corrected trial was scored
+        against."""
+        refs = [e.cond["ref_trial"] for e in journal.of("opt") if e.cond and e.cond.get("ref_trial") is not None]
+        if self.on_drift == "continue" and refs:
+            self.ref = next((e for e in self.flights(journal) if e.trial == refs[-1]), None)
+            self.fired = "drift: found before the resume"
+
+    def follow(self, journal: Journal) -> None:
+        """Continue mode: score from now on against the newest baseline flight."""
+        self.ref = self.flights(journal)[-1]
+
+    def corrected(self, journal: Journal, P: float, rms: float | None, ratio: float) -> float:
+        """A trial's score against the baseline in the same condition (the newest re-flight once the test has
+        fired): ``1 - rms / (ratio rms_ref)`` with the RMS, else P shifted by the baseline's drop in P."""
+        if self.ref is None:
+            return P
+        first = self.flights(journal)[0]
+        if rms is not None and self.ref.rms:
+            return 1.0 - rms / (ratio * self.ref.rms)
+        return P + (first.P - self.ref.P)

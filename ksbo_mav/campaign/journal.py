@@ -31,6 +31,7 @@ class JournalEntry:
     restored: bool
     rms: float | None = None  # 3-D missions: lap-2 RMS tracking error (m)
     stress: bool = False  # flown from the hardest start (the optimiser's refly_stress re-flights)
+    cond: dict[str, Any] | None = None  # wind, battery voltage, flight index (ksbo_mav.campaign.conditions)
 
     @classmethod
     def of(cls, kind: str, f: Flight) -> "JournalEntry":
@@ -44,12 +45,21 @@ class JournalEntry:
             e = cls(kind=str(doc["kind"]), trial=int(doc["trial"]), x=tuple(float(v) for v in doc["x"]),
                     P=float(doc["P"]), outcome=TrialOutcome(doc["outcome"]), record=str(doc["record"]),
                     restored=bool(doc["restored"]), rms=None if doc.get("rms") is None else float(doc["rms"]),
-                    stress=bool(doc.get("stress", False)))
+                    stress=bool(doc.get("stress", False)),
+                    cond=dict(doc["cond"]) if isinstance(doc.get("cond"), dict) else None)
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"{where}: not a journal entry ({exc})") from None
         if e.kind not in KINDS:
             raise InputError(f"{where}: unknown journal entry kind {e.kind!r}")
         return e
+
+    @property
+    def scored(self) -> float:
+        """The P the optimiser is given: drift-corrected when the campaign scored it against a re-flown baseline
+        (:mod:`ksbo_mav.campaign.drift`, continue mode), else as flown."""
+        if self.cond and self.cond.get("P_corrected") is not None:
+            return float(self.cond["P_corrected"])
+        return self.P
 
     def to_json(self) -> str:
         d = asdict(self)

@@ -20,7 +20,7 @@ from ksbo_mav.opt.outcome import Evaluation
 
 def evaluation(e: JournalEntry) -> Evaluation:
     """What the optimiser was told for a journalled trial."""
-    return Evaluation(e.P, e.outcome.evaluation)
+    return Evaluation(e.scored, e.outcome.evaluation)
 
 
 class JournalReplay:

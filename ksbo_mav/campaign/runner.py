@@ -21,6 +21,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ksbo_mav.campaign.battery import BatteryGuard, await_failsafe, failsafe_active, failsafe_message
+from ksbo_mav.campaign.conditions import ConditionWatch
 from ksbo_mav.campaign.drift import DriftWatch
 from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, prior_kind
 from ksbo_mav.campaign.confirm import confirm_failures, fly_confirmations
@@ -123,7 +124,9 @@ class Campaign:
             objective = MavlinkObjective(v, base, self.dir.trials, safety=cfg.safety, settle_s=cfg.settle_s,
                                          first_index=self.dir.next_trial_index(), start_seed=cfg.seed, log=log)
             trials = TrialLoop(objective, journal, self.progress, log, BatteryGuard(v, self.resume_hint))
-            trials.drift = DriftWatch(every=cfg.baseline_every, resume_hint=self.resume_hint)
+            trials.drift = DriftWatch(every=cfg.baseline_every, on_drift=cfg.on_drift, resume_hint=self.resume_hint)
+            trials.drift.restore(journal)
+            trials.conditions = ConditionWatch(v)
             started = time.time()
             baseline_trial = trials.fly_baseline(x0)
             with threadpool_limits(1):

@@ -4,10 +4,12 @@ computer or the link flown again, and the baseline flight every score is measure
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
 from ksbo_mav.campaign.battery import BatteryGuard
+from ksbo_mav.campaign.conditions import ConditionWatch
 from ksbo_mav.campaign.drift import DriftWatch
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.summary import TrialEvent
@@ -29,6 +31,7 @@ class TrialLoop:
         self.guard = guard  # refuses a trial the pack would not fit (CampaignPaused), reports its use
         self.drift: DriftWatch | None = None  # baseline re-flights at a cadence and the drift test on them
         self.x0: np.ndarray | None = None
+        self.conditions: ConditionWatch | None = None  # wind, voltage and flight index with each entry
 
     def fly(self, x: np.ndarray, kind: str, stress: bool = False) -> Flight:
         """One trial of journal ``kind``, journalled; flown again (up to :data:`RETRIES` times) when this computer
@@ -48,6 +51,8 @@ class TrialLoop:
 
     def _fly_once(self, x: np.ndarray, kind: str, stress: bool) -> Flight:
         journal = self.journal
+        if self.conditions is not None:
+            self.conditions.start()
         try:
             f = self.objective.fly(x, label=kind, stress=stress)
         except (TrialStopped, TrialInterrupted) as exc:
@@ -55,24 +60,45 @@ class TrialLoop:
             if not journal.has_trial(f.meta["trial"]):
                 # A crash of a real vehicle is the gains' doing; anything else that stops a trial (a failsafe, the
                 # pilot, the link) is not: recorded as interrupted, never given to the optimiser.
-                journal.append(JournalEntry.of(kind if f.outcome == "crash" else "failed", f))
+                journal.append(self._entry(kind if f.outcome == "crash" else "failed", f))
             raise
-        journal.append(JournalEntry.of(kind, f))
+        journal.append(self._entry(kind, f))
         self.progress(TrialEvent.of(kind, f, journal))
         line = self.guard.after_trial() if self.guard is not None else None
         if line:
             self.log(line)
         return f
 
+    def _entry(self, kind: str, f: Flight) -> JournalEntry:
+        e = JournalEntry.of(kind, f)
+        cond = self.conditions.take(len(self.journal.entries)) if self.conditions is not None else {}
+        drift = self.drift
+        if kind == "opt" and drift is not None and drift.ref is not None:  # scored in the same condition
+            cond["P_corrected"] = drift.corrected(self.journal, f.P, f.score.get("rms_lap2_m"),
+                                                  float(f.score.get("unsafe_rms_ratio", 2.0)))
+            cond["ref_trial"] = drift.ref.trial
+        return replace(e, cond=cond or None)
+
     def evaluate(self, x: np.ndarray, stress: bool = False) -> Evaluation:
         """An optimiser evaluation: a flown trial, with the monitor's aborts and crashes as censored outcomes
         (``stress``: from the hardest start, for the re-fly phase's ``refly_stress``)."""
-        if self.drift is not None and self.x0 is not None and self.drift.due(self.journal):
+        drift = self.drift
+        if drift is not None and self.x0 is not None and drift.due(self.journal):
             self.log("trial: the baseline gains again (is the vehicle still the one the campaign started with?)")
             self.fly(self.x0, "baseline")
-            self.drift.check(self.journal)  # CampaignPaused when the vehicle changed
+            if drift.shows_change(self.journal):
+                self.log("the baseline flew worse than at the start: flying it again at once to tell noise from a "
+                         "changed vehicle")
+                self.fly(self.x0, "baseline")
+                was = drift.fired
+                drift.confirm(self.journal)  # CampaignPaused (stop mode) when the vehicle changed
+                if drift.fired and not was:
+                    self.log(f"{drift.fired}; continuing with every trial scored against the baseline as last "
+                             "re-flown")
+            if drift.fired:
+                drift.follow(self.journal)
         f = self.fly(x, "opt", stress)
-        return Evaluation(f.P, f.outcome.evaluation)
+        return Evaluation(self.journal.entries[-1].scored, f.outcome.evaluation)
 
     def fly_baseline(self, x0: np.ndarray) -> int:
         """Fly the baseline gains first (answered from the journal when the optimiser asks for x0): every 3-D

@@ -56,7 +56,11 @@ def add_parser(subparsers) -> None:
     p.add_argument("--baseline-every", type=int, metavar="N",
                    help="re-fly the baseline gains after every N optimiser trials and test whether the vehicle "
                         "changed (drift): if its tracking at the same gains got clearly worse, land and stop, "
-                        "resumable (default 10; 0: never)")
+                        "resumable (default 7; 0: never)")
+    p.add_argument("--on-drift", choices=("stop", "continue"),
+                   help="when the vehicle changed at the baseline gains: stop (default: land, restore the baseline, "
+                        "resumable after a check of the vehicle) or continue, scoring every trial against the "
+                        "baseline as last re-flown")
     p.add_argument("--widen", action="store_const", const=True, help="when the recommendation ends on a bound of "
                    "the search box, move that bound out stepwise (never past the gain's documented range) and search "
                    "on from the recommendation; as the profile's [trust_region] widen = true (docs/profiles.md)")
@@ -122,7 +126,8 @@ def config_from_args(args: argparse.Namespace):
         given["options"] = dict(option_arg(o) for o in args.option)  # they define the campaign too
     # --end has a default, so it is always given; --accept only turns accepting on.
     resumable = {"end": args.end, **({"accept": True} if args.accept else {}),
-                 **{k: getattr(args, k) for k in ("sysid", "compid", "baseline_every") if getattr(args, k) is not None}}
+                 **{k: getattr(args, k) for k in ("sysid", "compid", "baseline_every", "on_drift")
+                    if getattr(args, k) is not None}}
     if args.resume:
         if args.dir:
             raise InputError("give either DIR (a new campaign) or --resume DIR, not both")
