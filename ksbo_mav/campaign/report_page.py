@@ -24,6 +24,7 @@ PLOTS = (
     ("convergence", "P of every flown trial (prior, baseline re-flights and confirmations included)."),
     ("trajectory", "The baseline and the tuned gains flying the figure-8, in the vehicle's frame."),
     ("gains", "Each gain through the campaign against its search box and the profile's limits."),
+    ("conditions", "The baseline gains at each re-flight, and the wind and battery voltage each trial flew in."),
     ("safety", "Cumulative counts of unsafe, aborted, crashed and interrupted trials."),
 )
 
@@ -108,7 +109,7 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
     after = (spread(conf) if conf else f"no completed confirmation flight ({len(flown)} flown)" if flown
              else "the recommendation was not re-flown")
     rows.append(("Lap RMS error", f"{esc(spread(base))} &#8594; {esc(after)}"))
-    if result:
+    if result and result.get("best"):
         best = result["best"]
         pc = best.get("P_confirm")
         rows.append(("P", esc(f"{result['baseline']['P']:+.4f} → "
@@ -133,6 +134,8 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
         flown = (rec.settings.get("mission") or {}).get("rate_hz")
         rows.append(("Link", esc(fig.describe() + (f"; flown at {flown} Hz, the profile's {fig.reduced_from_hz} Hz "
                                                    "did not fit the link" if fig.reduced_from_hz else ""))))
+    if result and result.get("drift"):
+        rows.append(("Vehicle changed", f'<span class="warn">{esc(result["drift"])}</span>'))
     if result and result.get("batteries") is not None:
         rows.append(("Batteries", esc(result["batteries"])))
     c = counts(rec)

@@ -12,8 +12,9 @@ from ksbo_mav.campaign.battery import BatteryGuard
 from ksbo_mav.campaign.conditions import ConditionWatch
 from ksbo_mav.campaign.drift import DriftWatch
 from ksbo_mav.campaign.journal import Journal, JournalEntry
+from ksbo_mav.campaign.report_conditions import save_drift
 from ksbo_mav.campaign.summary import TrialEvent
-from ksbo_mav.errors import TrialInterrupted, TrialStopped, VehicleError
+from ksbo_mav.errors import CampaignPaused, TrialInterrupted, TrialStopped, VehicleError
 from ksbo_mav.mav.objective import MavlinkObjective
 from ksbo_mav.objective import Flight
 from ksbo_mav.opt.outcome import Evaluation
@@ -91,8 +92,13 @@ class TrialLoop:
                          "changed vehicle")
                 self.fly(self.x0, "baseline")
                 was = drift.fired
-                drift.confirm(self.journal)  # CampaignPaused (stop mode) when the vehicle changed
+                try:
+                    drift.confirm(self.journal)  # CampaignPaused (stop mode) when the vehicle changed
+                except CampaignPaused:
+                    save_drift(self.objective.out_dir.parent, drift.message(self.journal), drift.on_drift)
+                    raise
                 if drift.fired and not was:
+                    save_drift(self.objective.out_dir.parent, drift.fired, drift.on_drift)
                     self.log(f"{drift.fired}; continuing with every trial scored against the baseline as last "
                              "re-flown")
             if drift.fired:
