@@ -1,6 +1,7 @@
 """Is it the gains or the vehicle? Baseline re-flights at a cadence, and a test on them.
 
-Every :attr:`DriftWatch.every` optimiser trials the campaign flies the baseline gains again (journal kind
+Every :attr:`DriftWatch.every` optimiser trials (stretched up to twice that while the re-flights stay quiet) the
+campaign flies the baseline gains again (journal kind
 ``baseline``: never given to the optimiser). The first baseline flight is the reference of every score, so the
 re-flights say whether the vehicle still answers the same gains the same way.
 
@@ -48,13 +49,25 @@ class DriftWatch:
         if self.on_drift not in ON_DRIFT:
             raise InputError(f"on_drift must be one of {', '.join(ON_DRIFT)}, got {self.on_drift!r}")
 
+    def interval(self, journal: Journal) -> int:
+        """Optimiser trials until the next re-flight: ``every``, stretched by half (up to twice ``every``) after
+        each re-flight that tracked within half the floor of the first flight, back to ``every`` after one that
+        did not (a static vehicle pays less, a changing one is watched at the cadence)."""
+        b = self.flights(journal)
+        floor = self.rms_ratio - 1.0 if b and b[0].rms is not None else self.p_drop
+        n = self.every
+        for e in b[1:]:
+            n = min(2 * self.every, math.ceil(1.5 * n)) if self.change(b[0], e) <= floor / 2 else self.every
+        return n
+
     def due(self, journal: Journal) -> bool:
-        """A baseline re-flight is due: ``every`` optimiser trials since the baseline or its last re-flight."""
+        """A baseline re-flight is due: :meth:`interval` optimiser trials since the baseline or its last
+        re-flight."""
         opt = journal.of("opt")
         if not opt or self.every <= 0:
             return False
         last = max([opt[0].trial, *(e.trial for e in journal.of("baseline"))])
-        return sum(e.trial > last for e in opt) >= self.every
+        return sum(e.trial > last for e in opt) >= self.interval(journal)
 
     @staticmethod
     def flights(journal: Journal) -> list[JournalEntry]:
