@@ -29,6 +29,15 @@ from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.errors import CampaignPaused, InputError
 
 ON_DRIFT = ("stop", "continue")
+
+
+def conditions_seen(first: JournalEntry, last: JournalEntry) -> str:
+    """"; wind 0.0 -> 1.0 m/s, battery 12.6 -> 11.8 V" for the conditions recorded with both flights."""
+    a, b = first.cond or {}, last.cond or {}
+    parts = [f"{name} {a[k]:.1f} -> {b[k]:.1f} {unit}" for k, name, unit in
+             (("wind_mps", "mean wind", "m/s"), ("voltage_v", "battery", "V"))
+             if a.get(k) is not None and b.get(k) is not None and abs(b[k] - a[k]) >= 0.05]
+    return f"; {', '.join(parts)}" if parts else ""
 #: Gaussian consistency of the median absolute deviation.
 MAD_SIGMA = 1.4826
 
@@ -108,8 +117,21 @@ class DriftWatch:
         else:
             what = f"the score P went from {first.P:.3f} to {last.P:.3f}"
         return (f"drift: at the baseline gains {what} over {last.trial - first.trial} flights (trial {last.trial}, "
-                f"re-flown twice; test threshold {self.threshold(journal):.2f}); the gains did not cause this, the "
-                "vehicle or its conditions changed (battery, propellers, payload, wind)")
+                f"re-flown twice; test threshold {self.threshold(journal):.2f}){conditions_seen(first, last)}; the "
+                "gains did not cause this, the vehicle or its conditions changed (battery, propellers, payload, wind)")
+
+    def unflyable(self, journal: Journal, why: str) -> str:
+        """The message when the baseline gains, which flew the mission at the start, no longer can."""
+        b = self.flights(journal)
+        first, last = b[0], b[-1]
+        seen = ""
+        if last is not first and (first.rms is not None and last.rms is not None):
+            seen = f"; its last completed flight had the lap-2 RMS at {last.rms:.2f} m against {first.rms:.2f} m"
+        elif last is not first:
+            seen = f"; its last completed flight scored P {last.P:.3f} against {first.P:.3f}"
+        return (f"drift: the baseline gains flew the mission at trial {first.trial} and now cannot ({why}){seen}; "
+                "the gains did not cause this, the vehicle or its conditions changed (battery, propellers, payload, "
+                "wind)")
 
     def confirm(self, journal: Journal) -> None:
         """The confirming re-flight has flown: fire when it shows the change too. Stop mode: CampaignPaused with

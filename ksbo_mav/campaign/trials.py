@@ -14,7 +14,7 @@ from ksbo_mav.campaign.drift import DriftWatch
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.report_conditions import save_drift
 from ksbo_mav.campaign.summary import TrialEvent
-from ksbo_mav.errors import CampaignPaused, TrialInterrupted, TrialStopped, VehicleError
+from ksbo_mav.errors import CampaignPaused, PreflightError, TrialInterrupted, TrialStopped, VehicleError
 from ksbo_mav.mav.objective import MavlinkObjective
 from ksbo_mav.objective import Flight
 from ksbo_mav.opt.outcome import Evaluation
@@ -86,11 +86,11 @@ class TrialLoop:
         drift = self.drift
         if drift is not None and self.x0 is not None and drift.due(self.journal):
             self.log("trial: the baseline gains again (is the vehicle still the one the campaign started with?)")
-            self.fly(self.x0, "baseline")
+            self._refly_baseline()
             if drift.shows_change(self.journal):
                 self.log("the baseline flew worse than at the start: flying it again at once to tell noise from a "
                          "changed vehicle")
-                self.fly(self.x0, "baseline")
+                self._refly_baseline()
                 was = drift.fired
                 try:
                     drift.confirm(self.journal)  # CampaignPaused (stop mode) when the vehicle changed
@@ -103,8 +103,39 @@ class TrialLoop:
                              "re-flown")
             if drift.fired:
                 drift.follow(self.journal)
-        f = self.fly(x, "opt", stress)
+        try:
+            f = self.fly(x, "opt", stress)
+        except PreflightError as exc:
+            self._gains_or_vehicle(exc)
+            raise
         return Evaluation(self.journal.entries[-1].scored, f.outcome.evaluation)
+
+    def _gains_or_vehicle(self, exc: PreflightError) -> None:
+        """A trial's gains could not bring the vehicle to the mission's start: the baseline flies at once, and a
+        baseline that cannot either, or tracks worse than at the start (confirmed), is a changed vehicle
+        (CampaignPaused); otherwise the error stands."""
+        drift = self.drift
+        if drift is None or self.x0 is None or drift.every <= 0:
+            return
+        self.log(f"{exc}: flying the baseline gains at once (the gains, or the vehicle?)")
+        self._refly_baseline()
+        if drift.shows_change(self.journal):
+            self._refly_baseline()
+            if drift.shows_change(self.journal):
+                msg = drift.message(self.journal)
+                save_drift(self.objective.out_dir.parent, msg, "stop")
+                raise CampaignPaused(f"{msg}: check the vehicle, then `{drift.resume_hint}`") from exc
+
+    def _refly_baseline(self) -> None:
+        """A baseline re-flight. Gains that flew the mission at the start and now cannot reach its start are a
+        changed vehicle, not a gain failure: the campaign stops (CampaignPaused) in either drift mode."""
+        try:
+            self.fly(self.x0, "baseline")
+        except PreflightError as exc:
+            assert self.drift is not None
+            msg = self.drift.unflyable(self.journal, str(exc))
+            save_drift(self.objective.out_dir.parent, msg, "stop")
+            raise CampaignPaused(f"{msg}: check the vehicle, then `{self.drift.resume_hint}`") from None
 
     def fly_baseline(self, x0: np.ndarray) -> int:
         """Fly the baseline gains first (answered from the journal when the optimiser asks for x0): every 3-D

@@ -1,0 +1,62 @@
+"""A campaign on our simulator whose vehicle changes (a wind step after 40 s of flight, over loopback UDP to the
+simulator's own process): the drift test fires on the baseline re-flights and says so; by default the campaign
+stops with the baseline restored and the message in the report, with ``--on-drift continue`` it flies the budget
+with every later trial scored against the re-flown baseline. The conditions of each flight are in the journal."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from mav_tune_helpers import baseline, fresh_read, sim_and_endpoint
+
+from ksbo_mav.cli import main
+
+pytestmark = [pytest.mark.network, pytest.mark.timeout(600)]
+
+STILL = ("--wind", "0,0,20,0")  # no gusts: the same flights every run
+STOP_WIND = (*STILL, "--wind-step", "40:1.0")
+GO_WIND = ("--seed", "3", "--wind-step", "40:1.0")  # gusts, seeded: the approach still made
+
+
+def _entries(d):
+    return [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
+
+
+def test_a_vehicle_in_a_rising_wind_stops_the_campaign_with_the_numbers(tmp_path, capsys) -> None:
+    d = tmp_path / "camp"
+    with sim_and_endpoint(*STOP_WIND) as (sim, ep):
+        rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--profile", "sim-planar", "--budget", "8",
+                   "--baseline-every", "2"])
+        err = " ".join(capsys.readouterr().err.split())  # the console wraps its lines
+        assert rc == 3, err
+        assert fresh_read(sim) == baseline()  # parameters = the snapshot
+    # said with the numbers: the re-flight's score and the wind; the confirmation flown at once (or the baseline
+    # gains no longer able to reach the start in this wind)
+    assert "stopped: drift: " in err and "the gains did not cause this" in err
+    assert "the score P went from" in err or "and now cannot" in err
+    assert f"--resume {d}" in err
+    entries = _entries(d)
+    assert all(e["cond"]["wind_mps"] is not None for e in entries)
+    assert json.loads((d / "drift.json").read_text())["on_drift"] == "stop"
+    page = (d / "report" / "index.html").read_text()
+    assert "Vehicle changed" in page and "the gains did not cause this" in page
+    assert (d / "report" / "conditions.png").is_file()
+
+
+def test_continue_mode_flies_the_budget_scored_against_the_re_flown_baseline(tmp_path, capsys) -> None:
+    d = tmp_path / "camp"
+    with sim_and_endpoint(*GO_WIND) as (sim, ep):
+        rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--profile", "sim-planar", "--budget", "8",
+                   "--baseline-every", "2", "--on-drift", "continue"])
+        err = " ".join(capsys.readouterr().err.split())
+        assert rc == 0, err
+        assert fresh_read(sim) == baseline()
+    assert "continuing with every trial scored against the baseline as last re-flown" in err
+    entries = _entries(d)
+    opt = [e for e in entries if e["kind"] == "opt"]
+    assert len(opt) == 8
+    corrected = [e for e in opt if e["cond"].get("P_corrected") is not None]
+    assert corrected and all(e["cond"]["P_corrected"] > e["P"] for e in corrected)  # the wind made them worse
+    assert "Vehicle changed" in (d / "report" / "index.html").read_text()
