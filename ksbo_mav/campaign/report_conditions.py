@@ -56,6 +56,9 @@ def plot_conditions(rec: CampaignRecord, path: Path) -> str | None:
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8, loc="best")
+    from matplotlib.ticker import MaxNLocator
+
+    axes[2].xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
     axes[2].set_xlabel("trial (as numbered on the console)")
     fig.savefig(path, dpi=100)
     plt.close(fig)
