@@ -102,7 +102,7 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     index.html embeds them. ``result``: the campaign's summary (default: result.json); ``profile``: the vehicle
     profile (default: the one the campaign names), for the profile's own gain limits.
     """
-    from ksbo_mav.campaign.report_conditions import load_drift, plot_conditions
+    from ksbo_mav.campaign.report_conditions import load_drift, plot_conditions, same_condition
     from ksbo_mav.campaign.report_page import write_page
 
     d = d if isinstance(d, CampaignDir) else CampaignDir.at(d)
@@ -129,8 +129,10 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
         paths["trajectory"] = traj
     paths["safety"] = plot_safety(rec, d.report / "safety.png") or "none"
     paths["conditions"] = plot_conditions(rec, d.report / "conditions.png") or "none"
-    drift = load_drift(d.root)
+    drift, same = load_drift(d.root), same_condition(rec)
     if drift:
         result = {**(result or {}), "drift": drift}
+    if same:
+        result = {**(result or {}), "same_condition": same}
     paths["page"] = str(write_page(d.report / "index.html", rec, result, [*moves, *hits], paths))
     return paths

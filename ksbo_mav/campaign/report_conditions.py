@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 from ksbo_mav.campaign.trial_rows import CampaignRecord
 from ksbo_mav.plotting import pyplot
 
@@ -63,3 +65,31 @@ def plot_conditions(rec: CampaignRecord, path: Path) -> str | None:
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return str(path)
+
+
+def same_condition(rec: CampaignRecord) -> str | None:
+    """Every optimiser trial judged against the baseline in its own condition (linear between the baseline
+    flights around it, held past the last): the best so far, and the trials unsafe against the first flight only.
+    None without a re-flight. With the lap RMS: ``P' = 1 - (1 - P) rms_first / rms_then``; without: P shifted by
+    the baseline's drop in P."""
+    base = [r for r in rec.rows if r.role in ("baseline", "baseline re-flight") and r.entry.outcome == "ok"]
+    opt = [r for r in rec.rows if r.kind == "opt" and r.entry.outcome == "ok"]
+    if len(base) < 2 or not opt:
+        return None
+    t = np.array([r.trial for r in base], dtype=float)
+    rms = all(r.entry.rms for r in base) and all(r.entry.rms for r in opt)
+    ref = np.array([r.entry.rms if rms else r.entry.P for r in base], dtype=float)
+    first = ref[0]
+    judged = []
+    for r in opt:
+        now = float(np.interp(r.trial, t, ref))
+        P = r.entry.P
+        judged.append((1.0 - (1.0 - P) * first / now if rms else P + (first - now), r))
+    best_P, best = max(judged, key=lambda j: j[0])
+    drift_only = [r.trial for P, r in judged if r.entry.P < 0 <= P]
+    text = (f"judged against the baseline flown in the same condition (interpolated between its {len(base)} "
+            f"flights): best trial {best.trial}, P {best_P:+.3f} (as flown {best.entry.P:+.3f})")
+    if drift_only:
+        text += (f"; trials {', '.join(map(str, drift_only))} were unsafe only against the first baseline flight, "
+                 "not in their own condition")
+    return text

@@ -136,6 +136,8 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
                                                    "did not fit the link" if fig.reduced_from_hz else ""))))
     if result and result.get("drift"):
         rows.append(("Vehicle changed", f'<span class="warn">{esc(result["drift"])}</span>'))
+    if result and result.get("same_condition"):
+        rows.append(("Same condition", esc(result["same_condition"])))
     if result and result.get("batteries") is not None:
         rows.append(("Batteries", esc(result["batteries"])))
     c = counts(rec)
