@@ -59,6 +59,8 @@ def test_continue_mode_flies_the_budget_through_a_gusty_wind(tmp_path, capsys) -
     assert len([e for e in entries if e["kind"] == "opt"]) == 8
     assert len([e for e in entries if e["kind"] == "baseline"]) >= 2
     assert all(e["cond"]["wind_mps"] > 0.5 for e in entries if e["trial"] >= 3)
+    page = (d / "report" / "index.html").read_text()
+    assert "Same condition" in page and (d / "report" / "conditions.png").is_file()
     fired = (d / "drift.json").is_file()
     assert fired == ("continuing with every trial scored against the baseline as last re-flown" in err)
     if fired:
