@@ -205,32 +205,3 @@ def _peak_speed(profile: str) -> float:
     t = np.linspace(0.0, mission.period * mission.laps, 4000)
     return float(np.linalg.norm(mission.figure8h.velocity(t), axis=-1).max())
 
-
-def test_ardupilot_tlog_recorded_by_mavproxy_scores_like_the_onboard_log(ardupilot_sitl, tmp_path, capsys):
-    """A tlog as MAVProxy records it with its default stream rates, the figure-8 flown by a client behind it: the
-    vehicle's POSITION_TARGET_GLOBAL_INT covers only the take-off there, so the relayed setpoints are the targets;
-    the figure-8 scores like the autopilot's own .BIN of the same flight."""
-    import shutil
-    import signal
-
-    from ksbo_sim.process import free_udp_port
-    from ksbo_sim.sitl_flight import fly_figure8
-
-    if shutil.which("mavproxy.py") is None:
-        pytest.skip("MAVProxy (mavproxy.py) is not installed")
-    port, mp_log = free_udp_port(), tmp_path / "mavproxy.tlog"
-    mp = subprocess.Popen(["mavproxy.py", f"--master=tcp:127.0.0.1:{ardupilot_sitl.tcp_ports[1]}",
-                           f"--out=udp:127.0.0.1:{port}", f"--logfile={mp_log}", "--daemon", "--non-interactive"],
-                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path, start_new_session=True)
-    try:
-        time.sleep(8)
-        res = fly_figure8("ardupilot", f"udpin:127.0.0.1:{port}", stream_target=False)
-        time.sleep(3)
-    finally:
-        os.killpg(mp.pid, signal.SIGTERM)
-        mp.wait(20)
-    binlog = _complete_log(ardupilot_sitl, ".BIN")
-    a, b = _score(capsys, binlog), _score(capsys, mp_log)
-    assert b["target_source"].startswith("SET_POSITION_TARGET_LOCAL_NED"), b
-    assert _figure8(b)["score"]["rms_lap2_m"] == pytest.approx(_figure8(a)["score"]["rms_lap2_m"], abs=TOL_M)
-    assert res.setpoints > 500

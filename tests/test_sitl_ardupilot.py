@@ -137,6 +137,7 @@ def test_a_finite_battery_stops_the_campaign_safely_and_resume_completes_it(tmp_
         assert r.returncode == 3, r.stderr[-3000:]
         last = r.stderr.strip().splitlines()[-1]
         assert last.startswith("stopped: battery: ") and "`ksbo-mav tune --resume" in last, last
+        print(last)  # which stop it was (the watch before a trial, or the autopilot's failsafe), for the record
         entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
         assert all(e["outcome"] != "crash" for e in entries)
         assert all(e["outcome"] == "failsafe" for e in entries if e["kind"] == "failed")
@@ -145,13 +146,18 @@ def test_a_finite_battery_stops_the_campaign_safely_and_resume_completes_it(tmp_
         assert not armed and not param_diff(d, now)
     finally:
         sitl.stop()
-    sitl = sitl_or_skip("ardupilot", 10)  # the swap: a fresh SITL, a full (default) pack
-    try:
-        r = tool("tune", "--resume", str(d), *sitl.cli_args)
-        assert r.returncode == 0, r.stderr[-3000:]
-        now, armed = read_all(sitl, PROFILE)
-        assert not armed
-    finally:
-        sitl.stop()
+    for _ in range(3):  # each swap: a fresh SITL with a full (default, 3.3 Ah) pack, until the budget is flown
+        sitl = sitl_or_skip("ardupilot", 10)
+        try:
+            r = tool("tune", "--resume", str(d), *sitl.cli_args)
+            assert r.returncode in (0, 3), r.stderr[-3000:]
+            assert r.returncode == 0 or "stopped: battery: " in r.stderr.strip().splitlines()[-1]
+            now, armed = read_all(sitl, PROFILE)
+            assert not armed
+        finally:
+            sitl.stop()
+        if r.returncode == 0:
+            break
+    assert r.returncode == 0, r.stderr[-3000:]
     entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
-    assert len([e for e in entries if e["kind"] == "opt"]) >= 12
+    assert len([e for e in entries if e["kind"] == "opt"]) == 12

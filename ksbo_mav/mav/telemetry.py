@@ -18,10 +18,12 @@ from collections.abc import Callable
 from typing import Any
 
 from ksbo_mav.mav.clock import VehicleClock
+from ksbo_mav.errors import VehicleError
 from ksbo_mav.mav.commands import CMD_INTERVAL, Commander
 from ksbo_mav.mav.link import Link
 
 MSG_ATTITUDE, MSG_LPN, MSG_ACTUATOR = 30, 32, 375
+MSG_SYS_STATUS, MSG_BATTERY_STATUS = 1, 147  # the pack, at 1 Hz (ksbo_mav.mav.power)
 
 
 
@@ -31,6 +33,7 @@ class Telemetry:
 
     def __init__(self, link: Link, cmd: Commander, rate_hz: float) -> None:
         self.link, self.cmd, self.rate_wanted = link, cmd, float(rate_hz)
+        self._power_asked = False
         self.clock = VehicleClock()
         self.last_lpn: Any = None
         self.last_att: Any = None
@@ -62,6 +65,13 @@ class Telemetry:
         period_us = 1e6 / self.rate_wanted
         ok = all([self.cmd.set_interval(m, period_us) for m in (MSG_LPN, MSG_ATTITUDE)])
         self.cmd.set_interval(MSG_ACTUATOR, period_us)  # optional (thrusts for P(a)'s input term); not on SITLs
+        if not self._power_asked:  # optional: a link whose stream rates are off still reports the pack
+            self._power_asked = True
+            for m in (MSG_SYS_STATUS, MSG_BATTERY_STATUS):
+                try:
+                    self.cmd.set_interval(m, 1e6)
+                except VehicleError:  # not answered: the battery watch then has what the vehicle sends anyway
+                    pass
         self._last_assert_ms = self.clock.last_ms if self.clock.valid else -1e18
         return ok
 
