@@ -91,6 +91,9 @@ MARKDOWN_OUTPUTS = {
     "copter3d": ("JSBSim 3-D copter", "copter3d/results.md", 1, ""),
     "mavlink_sim": ("MAVLink simulator", "mavlink-sim/results.md", 1, ""),
     "log_scoring": ("Flight-log scoring", "log-scoring/results.md", 1, ""),
+    "link_rates": ("The same gains at 50, 20 and 10 Hz", "link-rates/results.md", 1,
+                   "Reading: [docs/links.md](docs/links.md)."),
+    "link_campaign": ("A whole campaign through a radio-like link", "link-campaign/results.md", 2, ""),
 }
 
 
