@@ -93,7 +93,6 @@ MARKDOWN_OUTPUTS = {
     "log_scoring": ("Flight-log scoring", "log-scoring/results.md", 1, ""),
     "link_rates": ("The same gains at 50, 20 and 10 Hz", "link-rates/results.md", 1,
                    "Reading: [docs/links.md](docs/links.md)."),
-    "link_campaign": ("A whole campaign through a radio-like link", "link-campaign/results.md", 2, ""),
 }
 
 
