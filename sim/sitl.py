@@ -179,8 +179,12 @@ class Sitl:
         self.stop()
 
 
-#: PX4 SITL's SIM_BAT_DRAIN (s from full to SIM_BAT_MIN_PCT) set by :func:`start_sitl`.
-PX4_PACK_S = 1800.0
+#: Simulated packs that last, set by :func:`start_sitl` (unless ``keep_params``). PX4 SITL's pack drains to
+#: SIM_BAT_MIN_PCT (50 %) in SIM_BAT_DRAIN (60) s and then holds: a third of it in the first trial. ArduCopter
+#: SITL's 3.3 Ah pack lasts about ten figure-8 trials, fewer than one test module flies on its shared SITL. A tuner
+#: that watches the battery rightly stops on either; tests that want a finite pack set their own.
+LASTING_PACK = {"px4": {"SIM_BAT_DRAIN": 1800.0},
+                "ardupilot": {"SIM_BATT_CAP_AH": 33.0, "BATT_CAPACITY": 33000.0}}
 
 
 def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str | Path | None = None,
@@ -207,11 +211,8 @@ def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str 
     sitl = Sitl(kind, instance, speedup, wd, proc, log_path, own)
     try:
         _wait_heartbeat(sitl, heartbeat_timeout)
-        if kind == "px4" and not keep_params:
-            # PX4 SITL's simulated pack drains to SIM_BAT_MIN_PCT (50 %) in SIM_BAT_DRAIN (60) s and then holds:
-            # a third of it in the first trial, which a tuner that watches the battery rightly refuses to go on
-            # with. A pack that lasts half an hour of flight, like a real one.
-            sitl.set_param("SIM_BAT_DRAIN", PX4_PACK_S)
+        for name, value in ({} if keep_params else LASTING_PACK[kind]).items():
+            sitl.set_param(name, value)
     except BaseException:
         sitl.stop()
         raise

@@ -73,6 +73,7 @@ def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
     journal = d / "journal.jsonl"
     # Kill it while trial 2 is being flown (two trials journalled, the third tlog growing).
     while time.monotonic() < deadline:
+        assert proc.poll() is None, f"tune ended before trial 2 (exit {proc.returncode}): {proc.stderr.read()[-2000:]}"
         flying_third = (d / "trials" / "trial_002.tlog").exists()
         if journal.exists() and len(journal.read_text().splitlines()) >= 2 and flying_third:
             time.sleep(1.5)
@@ -146,7 +147,7 @@ def test_a_finite_battery_stops_the_campaign_safely_and_resume_completes_it(tmp_
         assert not armed and not param_diff(d, now)
     finally:
         sitl.stop()
-    for _ in range(3):  # each swap: a fresh SITL with a full (default, 3.3 Ah) pack, until the budget is flown
+    for _ in range(3):  # each swap: a fresh SITL with a full pack (the launcher's), until the budget is flown
         sitl = sitl_or_skip("ardupilot", 10)
         try:
             r = tool("tune", "--resume", str(d), *sitl.cli_args)

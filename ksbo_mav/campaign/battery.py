@@ -32,13 +32,17 @@ class BatteryGuard:
         self.uses: list[float] = []  # % of the pack per trial
         self._start: BatteryReading | None = None
 
+    @property
+    def next_use(self) -> float:
+        """% of the pack the next trial may use: the most a trial has used so far, with a margin (0: not known)."""
+        return USE_MARGIN * max(self.uses, default=0.0)
+
     def before_trial(self) -> None:
         now = self.v.power.reading()
         self._start = now
         if now.remaining_pct is None:
             return
-        use = USE_MARGIN * max(self.uses) if self.uses else 0.0
-        if now.remaining_pct - use < self.reserve:
+        if now.remaining_pct - self.next_use < self.reserve:
             need = f"; a trial uses up to {max(self.uses):.0f} %" if self.uses else ""
             raise CampaignPaused(f"battery: {now.describe()}{need}, the reserve is {self.reserve:.0f} %: swap the "
                                  f"battery, then `{self.resume_hint}`")
@@ -50,8 +54,8 @@ class BatteryGuard:
             self.uses.append(max(0.0, self._start.remaining_pct - now.remaining_pct))
         if now.remaining_pct is None:
             return None if now.voltage_v is None else f"battery: {now.describe()}"
-        use = USE_MARGIN * max(self.uses) if self.uses and max(self.uses) > 0 else None
-        left = "" if use is None else f", about {int(max(0.0, now.remaining_pct - self.reserve) // use)} more " \
+        use = self.next_use
+        left = "" if not use else f", about {int(max(0.0, now.remaining_pct - self.reserve) // use)} more " \
                                       "trial(s) in this pack"
         return f"battery: {now.describe()}{left}"
 

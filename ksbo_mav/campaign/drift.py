@@ -133,6 +133,10 @@ class DriftWatch:
                 "the gains did not cause this, the vehicle or its conditions changed (battery, propellers, payload, "
                 "wind)")
 
+    def paused(self, msg: str) -> CampaignPaused:
+        """The stop for a changed vehicle: what the test saw, and how to go on."""
+        return CampaignPaused(f"{msg}: check the vehicle, then `{self.resume_hint}`")
+
     def confirm(self, journal: Journal) -> None:
         """The confirming re-flight has flown: fire when it shows the change too. Stop mode: CampaignPaused with
         the message; continue mode: the message kept in :attr:`fired` and the reference moved to this flight."""
@@ -140,7 +144,7 @@ class DriftWatch:
             return
         msg = self.message(journal)
         if self.on_drift == "stop":
-            raise CampaignPaused(f"{msg}: check the vehicle, then `{self.resume_hint}`")
+            raise self.paused(msg)
         self.fired = msg
         self.follow(journal)
 

@@ -41,8 +41,7 @@ def check_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     """Request the mission's streams, measure the link for ``seconds``, say what it delivers. When a trial could
     not be flown over it at the mission's rate and ``reduce``, step the rate (setpoints and telemetry) down through
     :data:`REDUCED_RATES_HZ` to the first the link carries with at most :data:`MAX_LOSS_REDUCED` of the frames lost,
-    and say so; PreflightError (one line naming the
-    measured and needed rates) when none fits."""
+    and say so; PreflightError (one line naming the measured and needed rates) when none fits."""
     asked = v.mission.rate_hz
     fig, why = _judge(v, seconds)
     log(f"link: {fig.describe()}" + (f" (the mission needs {judged_stream(fig)} at {asked} Hz)"

@@ -58,12 +58,6 @@ def box_edge_lines(d: CampaignDir | str | Path, result: dict[str, Any] | None = 
     """The box-edge notes of a finished campaign, one line each (none when the recommendation is inside)."""
     d = d if isinstance(d, CampaignDir) else CampaignDir.at(d)
     result = result if result is not None else load_result(d)
-    link = d.root / "link.json"
-    if result is not None and link.is_file():  # the link check's figures, for the verdict
-        try:
-            result = {**result, "link": json.loads(link.read_text())[-1]}
-        except (OSError, ValueError, IndexError):
-            pass
     if not result:
         return []
     rec = read_campaign(d, rms=False)

@@ -105,11 +105,11 @@ class Campaign:
         v = self._connect()
         base: dict[str, float] | None = None
         try:
-            if cfg.rate_hz and not self.resume:
-                v.set_mission_rate(cfg.rate_hz)
             if self.resume:  # the rate the campaign flies at (a thin link may have lowered it): the same again
                 v.set_mission_rate(int(self.dir.read_settings().get("mission", {}).get("rate_hz",
                                                                                       v.mission.rate_hz)))
+            elif cfg.rate_hz:
+                v.set_mission_rate(cfg.rate_hz)
             # before anything is read for, or written to, the campaign
             link = check_link(v, log, reduce=not self.resume and not cfg.rate_hz)
             base = baseline_params(v, self.dir, self.resume, log)

@@ -122,9 +122,7 @@ class TrialLoop:
         if drift.shows_change(self.journal):
             self._refly_baseline()
             if drift.shows_change(self.journal):
-                msg = drift.message(self.journal)
-                save_drift(self.objective.out_dir.parent, msg, "stop")
-                raise CampaignPaused(f"{msg}: check the vehicle, then `{drift.resume_hint}`") from exc
+                raise self._stop_changed(drift.message(self.journal)) from exc
 
     def _refly_baseline(self) -> None:
         """A baseline re-flight. Gains that flew the mission at the start and now cannot reach its start are a
@@ -133,9 +131,13 @@ class TrialLoop:
             self.fly(self.x0, "baseline")
         except PreflightError as exc:
             assert self.drift is not None
-            msg = self.drift.unflyable(self.journal, str(exc))
-            save_drift(self.objective.out_dir.parent, msg, "stop")
-            raise CampaignPaused(f"{msg}: check the vehicle, then `{self.drift.resume_hint}`") from None
+            raise self._stop_changed(self.drift.unflyable(self.journal, str(exc))) from None
+
+    def _stop_changed(self, msg: str) -> CampaignPaused:
+        """The stop for a changed vehicle (either drift mode), its message kept with the campaign for the report."""
+        assert self.drift is not None
+        save_drift(self.objective.out_dir.parent, msg, "stop")
+        return self.drift.paused(msg)
 
     def fly_baseline(self, x0: np.ndarray) -> int:
         """Fly the baseline gains first (answered from the journal when the optimiser asks for x0): every 3-D

@@ -164,8 +164,8 @@ def _global_targets(r: _Rows, actual: Track) -> tuple[Track | None, str | None]:
 
 def _coverage(a: Track, b: Track, gap: float = 1.0) -> float:
     """Share of ``b``'s sample times that lie within ``gap`` s of a sample of ``a``."""
-    i = np.clip(np.searchsorted(a.t, b.t), 1, len(a.t) - 1) if len(a.t) > 1 else np.zeros(len(b.t), int)
-    near = np.minimum(np.abs(a.t[i] - b.t), np.abs(a.t[i - 1] - b.t)) if len(a.t) > 1 else np.abs(a.t[0] - b.t)
+    j = np.searchsorted(a.t, b.t)  # the samples of a either side of each time of b
+    near = np.minimum(np.abs(a.t[np.minimum(j, len(a.t) - 1)] - b.t), np.abs(a.t[np.maximum(j - 1, 0)] - b.t))
     return float(np.mean(near <= gap)) if len(b.t) else 1.0
 
 
@@ -187,11 +187,12 @@ def _to_log(p: Path, size: int, r: _Rows, scan: TlogScanner) -> FlightLog:
         target, why = _global_targets(r, actual)
         if why:
             warnings.append(why)
-        if target is not None and commanded is not None and _coverage(target, commanded) < 0.5:
+        cover = _coverage(target, commanded) if target is not None and commanded is not None else 1.0
+        if cover < 0.5:
             # ArduCopter sends POSITION_TARGET_GLOBAL_INT only while its guided target is a position (take-off,
             # a go-to), not while it follows streamed position+velocity setpoints: the sent ones are the targets.
-            warnings.append(f"POSITION_TARGET_GLOBAL_INT covers only {100 * _coverage(target, commanded):.0f} % of "
-                            "the time the ground station sent setpoints; those are used instead")
+            warnings.append(f"POSITION_TARGET_GLOBAL_INT covers only {100 * cover:.0f} % of the time the ground "
+                            "station sent setpoints; those are used instead")
             target = None
     info = dict(r.info, bytes=size, records=scan.records, param_changes=r.params, vehicle=r.vehicle_kind,
                 landed=r.landed)

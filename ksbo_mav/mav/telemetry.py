@@ -17,8 +17,8 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-from ksbo_mav.mav.clock import VehicleClock
 from ksbo_mav.errors import VehicleError
+from ksbo_mav.mav.clock import VehicleClock
 from ksbo_mav.mav.commands import CMD_INTERVAL, Commander
 from ksbo_mav.mav.link import Link
 

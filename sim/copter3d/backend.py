@@ -271,6 +271,10 @@ class F450Backend:
         """Clamp the airframe in place (used while the vehicle sits on the ground)."""
         self.fdm["forces/hold-down"] = 1 if on else 0
 
+    def set_wind_north(self, mps: float) -> None:
+        """Wind toward north [m/s] (JSBSim's NED wind is the direction the air moves to)."""
+        self.fdm["atmosphere/wind-north-fps"] = mps / FT
+
     def total_thrust(self) -> float:
         """Sum of the motor thrusts in N (fast path, no array)."""
         f = self.fdm

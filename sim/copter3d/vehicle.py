@@ -67,6 +67,8 @@ class Copter3D:
         pos_g, att_g = build_gains(personality, self._values)
         self.pos_ctrl = PositionController(physics_dt, self.af.hover_fraction, pos_g, z_px4=personality == "px4")
         self.att_ctrl = AttitudeController(self.af, physics_dt, att_g)
+        #: Thrust produced per thrust commanded (1 = as built; lower = warm motors, a sagging pack).
+        self.authority = 1.0
         self.reset()
 
     # --- parameters -------------------------------------------------------------------------------------
@@ -151,7 +153,7 @@ class Copter3D:
                 # Angle boost on the measured tilt (ArduPilot), capped so a large tilt cannot ask for 2x thrust.
                 thr /= max(math.cos(s[6]) * math.cos(s[7]), 0.5)
                 thrust = self.att_ctrl.update(roll_d, pitch_d, self._tgt_yaw, s[6:9], s[9:12], min(thr, 1.0))
-            b.set_motors(cmd_for(thrust))
+            b.set_motors(cmd_for(thrust * self.authority))
             b.run(1)
             for i in range(3):  # dead-reckon the guided target (AC_PosControl update_pos_vel_accel)
                 tp[i] += tv[i] * dt + 0.5 * ta[i] * dt * dt
@@ -171,6 +173,15 @@ class Copter3D:
         if self._crash:
             b.hold(True)
         return self._observe(s)
+
+    # --- a vehicle that changes (ksbo_sim.conditions) -------------------------------------------------------
+    def set_authority(self, k: float) -> None:
+        """From the next step, each motor produces ``k`` times the thrust its controller commands."""
+        self.authority = float(k)
+
+    def set_wind(self, north_mps: float) -> None:
+        """Wind blowing toward north at ``north_mps`` (JSBSim's atmosphere: the drag terms see the air speed)."""
+        self.backend.set_wind_north(north_mps)
 
     def _check(self, s: list[float]) -> int:
         v = self._values

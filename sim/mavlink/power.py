@@ -89,7 +89,9 @@ class Power:
             used = 0.0 if b is None else 1.0 - b.soc
             if hasattr(f.model, "set_authority"):
                 f.model.set_authority(c.authority(used))
-            if airborne and hasattr(f.model, "disturb"):
+            if hasattr(f.model, "set_wind"):  # a model with its own air: the wind, not a force
+                f.model.set_wind(c.wind() if airborne else 0.0)
+            elif airborne and hasattr(f.model, "disturb"):
                 f.model.disturb(c.wind_accel(f.truth.vel), dt)
         if b is not None and b.step(dt, f.armed, airborne, self._load()):
             self.notify(SEV_CRITICAL, f"Battery 1 is low {b.voltage:.2f}V used {b.consumed_mah:.0f} mAh")
