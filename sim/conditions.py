@@ -1,11 +1,14 @@
 """A vehicle that changes while it flies: loss of control authority with flight time or battery use (motors and
 ESCs warming, a sagging pack), a step change at a given flight time (a payload or a propeller swapped), and a wind
-that rises, with turbulence.
+that rises, with turbulence; an airframe whose drag grows (a payload, dirt, a damaged propeller).
 
 :class:`Conditions` is pure arithmetic on the flight time and the battery; the MAVLink endpoint applies its
-outputs to models that accept them: ``set_authority(k)`` (thrust actually produced = commanded x k) and
-``disturb(acc_ned, dt)`` (an external acceleration for one control period). Models without these hooks fly
-unchanged. The wind blows along NED north (the planar vehicle's axis) from the south, i.e. toward +north.
+outputs to models that accept them: ``set_authority(k)`` (thrust actually produced = commanded x k),
+``set_wind(north_mps)`` (models with their own aerodynamics) or else ``disturb(acc_ned, dt)`` (an external
+acceleration for one control period), and ``set_drag_scale(k)``. Models without these hooks fly unchanged. An
+autopilot's loops make up for lost thrust (the JSBSim copter tracks the same at 0.6 of it): on a 3-D copter the
+drag is what degrades the response (its lap-2 RMS doubles at twice the drag).
+The wind blows along NED north (the planar vehicle's axis) from the south, i.e. toward +north.
 """
 
 from __future__ import annotations
@@ -30,6 +33,8 @@ class Conditions:
         wind_at_s, wind_to_mps: a step of the mean wind to ``wind_to_mps`` at this flight time.
         turbulence: gust standard deviation as a fraction of the mean wind.
         authority_floor: the authority never falls below this.
+        drag_scale, drag_rise_per_min: the airframe's drag (times as built) at take-off, its rise per minute of
+            flight.
     """
 
     drift: float = 0.0
@@ -43,6 +48,8 @@ class Conditions:
     wind_to_mps: float = 0.0
     turbulence: float = 0.3
     authority_floor: float = 0.3
+    drag_scale: float = 1.0
+    drag_rise_per_min: float = 0.0
     seed: int | None = None
     flight_s: float = 0.0
     gust: float = 0.0
@@ -54,7 +61,7 @@ class Conditions:
     @property
     def active(self) -> bool:
         return bool(self.drift or self.step_at_s is not None or self.wind_mps or self.wind_rise_per_min
-                    or self.wind_at_s is not None)
+                    or self.wind_at_s is not None or self.drag_scale != 1.0 or self.drag_rise_per_min)
 
     def authority(self, used_fraction: float = 0.0) -> float:
         """Thrust produced per thrust commanded, now (``used_fraction``: of the battery pack, for "pack")."""
@@ -63,6 +70,10 @@ class Conditions:
         if self.step_at_s is not None and self.flight_s >= self.step_at_s:
             k *= self.step_factor
         return max(self.authority_floor, k)
+
+    def drag(self) -> float:
+        """The airframe's drag now, times as built."""
+        return self.drag_scale + self.drag_rise_per_min * self.flight_s / 60.0
 
     def mean_wind(self) -> float:
         w = self.wind_mps + self.wind_rise_per_min * self.flight_s / 60.0

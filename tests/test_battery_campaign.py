@@ -59,10 +59,13 @@ def test_a_battery_failsafe_in_a_trial_is_an_interrupted_trial_and_resume_comple
     assert [e["trial"] for e in failed] == [1] and failed[0]["outcome"] == "failsafe"
     assert all(e["outcome"] != "crash" for e in entries)
     assert (d / "report" / "index.html").is_file()
+    n_before = len(entries)
     with sim_and_endpoint("--battery", "5000") as (sim, ep):  # a fresh pack
         rc, err = _tune(capsys, ["tune", "--resume", str(d), "--udp", f"127.0.0.1:{ep.port}"])
         assert rc == 0, err
         assert fresh_read(sim) == baseline()
+        assert "resume: the baseline gains again" in err
     entries = _journal(d)
+    assert entries[n_before]["kind"] == "baseline"  # after the swap the baseline flies first, tested for drift
     assert len([e for e in entries if e["kind"] == "opt"]) == 4  # the budget of 4 (the baseline included) met
     assert [e["trial"] for e in entries if e["kind"] == "failed"] == [1]

@@ -122,3 +122,28 @@ def test_px4_personality_flies_the_figure8():
     f = fly(v, Figure8H())
     assert f.crashed == 0
     assert 0.05 < f.rms_lap2 < 0.8
+
+
+def _lap2_rms(drag: float = 1.0, wind: float = 0.0) -> float:
+    """In process, the hooks applied before every step as the MAVLink endpoint does."""
+    v = Copter3D("ardupilot")
+    fig = Figure8H()
+    v.reset(pos=fig.start())
+    t = fig.sample_times()
+    err = []
+    for i, tk in enumerate(t):
+        v.set_drag_scale(drag)
+        v.set_wind(wind)
+        st = v.step(fig.setpoint(float(tk)))
+        err.append(np.linalg.norm(st.pos - fig.position(np.array([(i + 1) / fig.rate_hz]))[0]))
+    e = np.array(err)[(np.arange(len(t)) + 1) / fig.rate_hz > fig.duration - fig.period]
+    return float(np.sqrt(np.mean(e ** 2)))
+
+
+def test_drag_and_wind_degrade_the_tracking_and_lost_thrust_does_not():
+    calm = _lap2_rms()
+    assert _lap2_rms(drag=2.0) > 1.8 * calm  # twice the drag: the lap RMS about doubles (0.216 -> 0.446 m)
+    assert _lap2_rms(wind=6.0) > 1.1 * calm  # a steady 6 m/s wind (0.255 m)
+    v = Copter3D("ardupilot")
+    v.set_authority(0.6)  # the loops make up for lost thrust: the same tracking
+    assert fly(v, Figure8H()).rms_lap2 == pytest.approx(calm, rel=0.02)

@@ -62,7 +62,23 @@ def test_continue_mode_flies_the_budget_through_a_gusty_wind(tmp_path, capsys) -
     page = (d / "report" / "index.html").read_text()
     assert "Same condition" in page and (d / "report" / "conditions.png").is_file()
     fired = (d / "drift.json").is_file()
-    assert fired == ("continuing with every trial scored against the baseline as last re-flown" in err)
+    assert fired == ("continuing with every trial scored against the baseline as re-flown" in err)
     if fired:
         after = [e for e in entries if e["kind"] == "opt" and e["cond"].get("P_corrected") is not None]
         assert after and all(e["cond"]["P_corrected"] >= e["P"] for e in after)
+
+
+def test_a_copter_whose_drag_grows_stops_with_the_lap_rms(tmp_path, capsys) -> None:
+    # the JSBSim copter's drag rising 30 % per minute of flight: its lap-2 RMS at the baseline gains rises with it
+    # (the autopilot's loops do not make up for drag as they do for lost thrust); the test fires on the RMS
+    d = tmp_path / "camp"
+    with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot", "--drag", "1,0.3") as (sim, ep):
+        rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--budget", "6", "--prior", "none",
+                   "--baseline-every", "2"])
+        err = " ".join(capsys.readouterr().err.split())
+        assert rc == 3, err
+    assert "stopped: drift: at the baseline gains the lap-2 RMS went from" in err
+    entries = _entries(d)
+    base = [e["rms"] for e in entries if e["kind"] == "baseline" or e["trial"] == 0]
+    assert len(base) == 3 and base[2] > 1.25 * base[0] and base[1] > 1.25 * base[0]  # re-flown, confirmed at once
+    assert not (d / "result.json").exists() and (d / "report" / "index.html").is_file()

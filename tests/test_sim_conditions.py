@@ -102,3 +102,23 @@ def test_wind_is_reported_and_pushes_the_vehicle():
         assert w.speed == pytest.approx(4.0) and w.direction == pytest.approx(180.0)
         lpn = cli.last["LOCAL_POSITION_NED"]
         assert lpn.x > 0.005  # blown north of the hold point (the integrator has not caught up yet)
+
+
+def test_drag_rises_with_flight_time_and_the_option_parses():
+    import argparse
+
+    from ksbo_sim.mavlink.options import add_condition_arguments, condition_objects
+
+    c = Conditions(drag_scale=1.2, drag_rise_per_min=0.5)
+    assert c.active and c.drag() == pytest.approx(1.2)
+    for _ in range(60 * 50):
+        c.step(0.02, airborne=True)
+    c.step(0.02, airborne=False)
+    assert c.drag() == pytest.approx(1.7)
+    p = argparse.ArgumentParser()
+    p.add_argument("--seed", type=int, default=None)
+    add_condition_arguments(p)
+    _, cond = condition_objects(p.parse_args(["--drag", "1,0.03"]))
+    assert (cond.drag_scale, cond.drag_rise_per_min) == (1.0, pytest.approx(0.03))
+    with pytest.raises(Exception, match="SCALE must be positive"):
+        condition_objects(p.parse_args(["--drag", "0"]))

@@ -1,9 +1,9 @@
 """Is it the gains or the vehicle? Baseline re-flights at a cadence, and a test on them.
 
-Every :attr:`DriftWatch.every` optimiser trials (stretched up to twice that while the re-flights stay quiet) the
-campaign flies the baseline gains again (journal kind
-``baseline``: never given to the optimiser). The first baseline flight is the reference of every score, so the
-re-flights say whether the vehicle still answers the same gains the same way.
+Every :attr:`DriftWatch.every` trials (optimiser and flown prior; stretched up to twice that while the re-flights
+stay quiet) the campaign flies the baseline gains again (journal kind ``baseline``: never given to the optimiser).
+The first baseline flight is the reference of every score, so the re-flights say whether the vehicle still answers
+the same gains the same way.
 
 The test is one-sided and robust. Each baseline flight's change from the first is ``d = rms / rms_first - 1``
 (the 3-D figure-8s, lap-2 RMS) or ``d = P_first - P`` (the planar task, which has no RMS). The re-flight noise
@@ -40,6 +40,17 @@ def conditions_seen(first: JournalEntry, last: JournalEntry) -> str:
     return f"; {', '.join(parts)}" if parts else ""
 #: Gaussian consistency of the median absolute deviation.
 MAD_SIGMA = 1.4826
+#: Baseline flights at most in the reference level of the vehicle at the start (:meth:`DriftWatch.anchor`).
+ANCHOR_FLIGHTS = 3
+
+
+@dataclass(frozen=True)
+class Anchor:
+    """The baseline's level at the start: lap-2 RMS (None without one) and P, the mean of ``n`` flights."""
+
+    rms: float | None
+    P: float
+    n: int
 
 
 @dataclass
@@ -63,20 +74,22 @@ class DriftWatch:
         each re-flight that tracked within half the floor of the first flight, back to ``every`` after one that
         did not (a static vehicle pays less, a changing one is watched at the cadence)."""
         b = self.flights(journal)
-        floor = self.rms_ratio - 1.0 if b and b[0].rms is not None else self.p_drop
+        floor = self.floor(journal)
         n = self.every
         for e in b[1:]:
             n = min(2 * self.every, math.ceil(1.5 * n)) if self.change(b[0], e) <= floor / 2 else self.every
         return n
 
     def due(self, journal: Journal) -> bool:
-        """A baseline re-flight is due: :meth:`interval` optimiser trials since the baseline or its last
-        re-flight."""
+        """A baseline re-flight is due: :meth:`interval` trials (optimiser and flown prior) since the baseline or
+        its last re-flight. The vehicle changes during the flown prior too: counting those flights bounds the
+        flights between a change and the re-flight that sees it (``every`` at the cadence)."""
         opt = journal.of("opt")
         if not opt or self.every <= 0:
             return False
         last = max([opt[0].trial, *(e.trial for e in journal.of("baseline"))])
-        return sum(e.trial > last for e in opt) >= self.interval(journal)
+        flown = opt + journal.of("prior")
+        return sum(e.trial > last for e in flown) >= self.interval(journal)
 
     @staticmethod
     def flights(journal: Journal) -> list[JournalEntry]:
@@ -91,31 +104,62 @@ class DriftWatch:
             return e.rms / first.rms - 1.0
         return first.P - e.P
 
+    def floor(self, journal: Journal) -> float:
+        b = self.flights(journal)
+        return self.rms_ratio - 1.0 if b and b[0].rms is not None else self.p_drop
+
+    def anchor(self, journal: Journal) -> Anchor:
+        """How the vehicle flew the baseline at the start: the mean of the first flight and the re-flights right
+        after it that stayed within half the floor of it (up to :data:`ANCHOR_FLIGHTS`; the newest flight, under
+        test, never). One flight is a noisy reference (re-flights of the same gains on ArduCopter SITL spread by
+        10 %); a run of quiet ones is a better one, and a trend leaves it at the first flight."""
+        b = self.flights(journal)
+        first, half = b[0], self.floor(journal) / 2
+        quiet = [first]
+        for e in b[1:-1]:
+            if len(quiet) == ANCHOR_FLIGHTS or self.change(first, e) > half:
+                break
+            quiet.append(e)
+        rms = [e.rms for e in quiet]
+        level = float(np.mean(rms)) if all(r is not None and r > 0 for r in rms) else None
+        return Anchor(level, float(np.mean([e.P for e in quiet])), len(quiet))
+
+    @staticmethod
+    def change_from(a: Anchor, e: JournalEntry) -> float:
+        """How much worse ``e`` tracked than the vehicle at the start (relative RMS rise, or P drop without RMS)."""
+        if a.rms is not None and e.rms is not None:
+            return e.rms / a.rms - 1.0
+        return a.P - e.P
+
     def threshold(self, journal: Journal) -> float:
         """The change the newest re-flight must exceed: the floor, or 3 x the re-flight noise if larger."""
         b = self.flights(journal)
-        floor = self.rms_ratio - 1.0 if b and b[0].rms is not None else self.p_drop
-        d = np.array([self.change(b[0], e) for e in b])
-        steps = np.diff(d[:-1])  # the newest is tested, not used for its own noise
+        floor = self.floor(journal)
+        a = self.anchor(journal)
+        # The newest is tested, not used for its own noise; nor, for a confirmation flown at once, the re-flight
+        # it confirms (a step in the vehicle is not noise).
+        hist = b[:-2] if len(b) > 2 and b[-1].trial == b[-2].trial + 1 else b[:-1]
+        steps = np.diff([self.change_from(a, e) for e in hist])
         if len(steps) < 2:
             return floor
         s = MAD_SIGMA * float(np.median(np.abs(steps - np.median(steps)))) / math.sqrt(2.0)
         return max(floor, self.k_noise * s)
 
     def shows_change(self, journal: Journal) -> bool:
-        """The newest baseline re-flight tracked worse than the first baseline flight by more than the threshold."""
+        """The newest baseline re-flight tracked worse than the vehicle at the start by more than the threshold."""
         b = self.flights(journal)
         if len(b) < 2 or journal.of("baseline")[-1] is not b[-1]:
             return False
-        return self.change(b[0], b[-1]) > self.threshold(journal)
+        return self.change_from(self.anchor(journal), b[-1]) > self.threshold(journal)
 
     def message(self, journal: Journal) -> str:
         b = self.flights(journal)
-        first, last = b[0], b[-1]
-        if first.rms is not None and last.rms is not None:
-            what = f"the lap-2 RMS went from {first.rms:.2f} m to {last.rms:.2f} m"
+        first, last, a = b[0], b[-1], self.anchor(journal)
+        of = f" (the mean of its first {a.n} flights)" if a.n > 1 else ""
+        if a.rms is not None and last.rms is not None:
+            what = f"the lap-2 RMS went from {a.rms:.2f} m{of} to {last.rms:.2f} m"
         else:
-            what = f"the score P went from {first.P:.3f} to {last.P:.3f}"
+            what = f"the score P went from {a.P:.3f}{of} to {last.P:.3f}"
         return (f"drift: at the baseline gains {what} over {last.trial - first.trial} flights (trial {last.trial}, "
                 f"re-flown twice; test threshold {self.threshold(journal):.2f}){conditions_seen(first, last)}; the "
                 "gains did not cause this, the vehicle or its conditions changed (battery, propellers, payload, wind)")
@@ -165,7 +209,18 @@ class DriftWatch:
         fired): ``1 - rms / (ratio rms_ref)`` with the RMS, else P shifted by the baseline's drop in P."""
         if self.ref is None:
             return P
-        first = self.flights(journal)[0]
         if rms is not None and self.ref.rms:
-            return 1.0 - rms / (ratio * self.ref.rms)
-        return P + (first.P - self.ref.P)
+            return 1.0 - rms / (ratio * self.reference_rms(journal, len(journal.entries)))
+        return P + (self.anchor(journal).P - self.ref.P)
+
+    def reference_rms(self, journal: Journal, trial: int) -> float:
+        """The baseline's lap-2 RMS expected at ``trial``: the newest re-flight, carried forward along the trend
+        of the baseline flights (Theil-Sen slope per flight, a worsening only, at most doubling it)."""
+        from scipy.stats import theilslopes
+
+        b = [e for e in self.flights(journal) if e.rms]
+        ref = self.ref if self.ref is not None and self.ref.rms else b[-1]
+        if len(b) < 3:
+            return ref.rms
+        slope = theilslopes([e.rms for e in b], [e.trial for e in b])[0]
+        return min(2.0 * ref.rms, ref.rms + max(0.0, slope) * (trial - ref.trial))

@@ -33,10 +33,19 @@ class TrialLoop:
         self.drift: DriftWatch | None = None  # baseline re-flights at a cadence and the drift test on them
         self.x0: np.ndarray | None = None
         self.conditions: ConditionWatch | None = None  # wind, voltage and flight index with each entry
+        self.check_on_resume = False  # a resumed campaign re-flies the baseline before its next trial
 
     def fly(self, x: np.ndarray, kind: str, stress: bool = False) -> Flight:
         """One trial of journal ``kind``, journalled; flown again (up to :data:`RETRIES` times) when this computer
         or the link spoiled it. :class:`TrialStopped` for a trial that must end the campaign."""
+        if self.check_on_resume and kind != "baseline":
+            self.check_on_resume = False
+            self._check_vehicle("resume: the baseline gains again (the vehicle after the stop: is it the one the "
+                                "campaign started with?)")
+        elif kind in ("opt", "prior") and self.drift is not None and self.x0 is not None \
+                and self.drift.due(self.journal):
+            self._check_vehicle("trial: the baseline gains again (is the vehicle still the one the campaign started "
+                                "with?)")
         for attempt in range(RETRIES + 1):
             if self.guard is not None:
                 self.guard.before_trial()
@@ -83,32 +92,36 @@ class TrialLoop:
     def evaluate(self, x: np.ndarray, stress: bool = False) -> Evaluation:
         """An optimiser evaluation: a flown trial, with the monitor's aborts and crashes as censored outcomes
         (``stress``: from the hardest start, for the re-fly phase's ``refly_stress``)."""
-        drift = self.drift
-        if drift is not None and self.x0 is not None and drift.due(self.journal):
-            self.log("trial: the baseline gains again (is the vehicle still the one the campaign started with?)")
-            self._refly_baseline()
-            if drift.shows_change(self.journal):
-                self.log("the baseline flew worse than at the start: flying it again at once to tell noise from a "
-                         "changed vehicle")
-                self._refly_baseline()
-                was = drift.fired
-                try:
-                    drift.confirm(self.journal)  # CampaignPaused (stop mode) when the vehicle changed
-                except CampaignPaused:
-                    save_drift(self.objective.out_dir.parent, drift.message(self.journal), drift.on_drift)
-                    raise
-                if drift.fired and not was:
-                    save_drift(self.objective.out_dir.parent, drift.fired, drift.on_drift)
-                    self.log(f"{drift.fired}; continuing with every trial scored against the baseline as last "
-                             "re-flown")
-            if drift.fired:
-                drift.follow(self.journal)
         try:
             f = self.fly(x, "opt", stress)
         except PreflightError as exc:
             self._gains_or_vehicle(exc)
             raise
         return Evaluation(self.journal.entries[-1].scored, f.outcome.evaluation)
+
+    def _check_vehicle(self, why: str) -> None:
+        """A baseline re-flight and the drift test on it: a change is confirmed by flying the baseline again at
+        once; then stop mode stops (CampaignPaused) and continue mode scores against the newest re-flight."""
+        drift = self.drift
+        assert drift is not None
+        self.log(why)
+        self._refly_baseline()
+        if not drift.fired and drift.shows_change(self.journal):  # once fired (continue mode): a new reference
+            self.log("the baseline flew worse than at the start: flying it again at once to tell noise from a "
+                     "changed vehicle")
+            self._refly_baseline()
+            was = drift.fired
+            try:
+                drift.confirm(self.journal)  # CampaignPaused (stop mode) when the vehicle changed
+            except CampaignPaused:
+                save_drift(self.objective.out_dir.parent, drift.message(self.journal), drift.on_drift)
+                raise
+            if drift.fired and not was:
+                save_drift(self.objective.out_dir.parent, drift.fired, drift.on_drift)
+                self.log(f"{drift.fired}; continuing with every trial scored against the baseline as re-flown, "
+                         "carried along its trend")
+        if drift.fired:
+            drift.follow(self.journal)
 
     def _gains_or_vehicle(self, exc: PreflightError) -> None:
         """A trial's gains could not bring the vehicle to the mission's start: the baseline flies at once, and a
@@ -145,6 +158,7 @@ class TrialLoop:
         trial number; VehicleError if the baseline flew unsafe."""
         self.x0 = np.asarray(x0, dtype=float)
         opt = self.journal.of("opt")
+        resumed = bool(opt)
         if not opt:
             self.log("trial: baseline gains (the reference every score is measured against)")
             f = self.fly(x0, "opt")
@@ -155,4 +169,8 @@ class TrialLoop:
                                    "fix the gains or the mission/safety settings first (baseline restored)")
         if self.objective.mission.kind != "figure8-xz":
             self.objective.rms_ref = opt[0].rms
+        # A resumed campaign: after a stop (a pack swap, a check of the vehicle) the vehicle is not known to answer
+        # as it did; the baseline flies before the next trial (none when nothing is left to fly), tested like a
+        # re-flight at the cadence.
+        self.check_on_resume = resumed and self.drift is not None and self.drift.every > 0
         return opt[0].trial

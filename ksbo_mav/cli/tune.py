@@ -54,9 +54,9 @@ def add_parser(subparsers) -> None:
                         "instead of the profile's rate; without it the link check lowers the rate by itself when "
                         "the link cannot carry the profile's (docs/links.md)")
     p.add_argument("--baseline-every", type=int, metavar="N",
-                   help="re-fly the baseline gains after every N optimiser trials and test whether the vehicle "
-                        "changed (drift): if its tracking at the same gains got clearly worse, land and stop, "
-                        "resumable (default 7; 0: never)")
+                   help="re-fly the baseline gains after every N trials (optimiser and flown prior) and test "
+                        "whether the vehicle changed (drift): if its tracking at the same gains got clearly "
+                        "worse, land and stop, resumable (default 7; 0: never)")
     p.add_argument("--on-drift", choices=("stop", "continue"),
                    help="when the vehicle changed at the baseline gains: stop (default: land, restore the baseline, "
                         "resumable after a check of the vehicle) or continue, scoring every trial against the "

@@ -24,6 +24,7 @@ from ksbo_mav.mav.link import Link
 
 MSG_ATTITUDE, MSG_LPN, MSG_ACTUATOR = 30, 32, 375
 MSG_SYS_STATUS, MSG_BATTERY_STATUS = 1, 147  # the pack, at 1 Hz (ksbo_mav.mav.power)
+MSG_WIND, MSG_WIND_COV = 168, 231  # the wind estimate, at 1 Hz (ksbo_mav.campaign.conditions)
 
 
 
@@ -67,7 +68,9 @@ class Telemetry:
         self.cmd.set_interval(MSG_ACTUATOR, period_us)  # optional (thrusts for P(a)'s input term); not on SITLs
         if not self._power_asked:  # optional: a link whose stream rates are off still reports the pack
             self._power_asked = True
-            for m in (MSG_SYS_STATUS, MSG_BATTERY_STATUS):
+            # ArduCopter streams WIND only in EXTRA3 (its rate often 0 on SITL and USB), PX4 WIND_COV when its
+            # estimator has one: asked for, not assumed; the one a stack lacks is refused by its ACK
+            for m in (MSG_SYS_STATUS, MSG_BATTERY_STATUS, MSG_WIND, MSG_WIND_COV):
                 try:
                     self.cmd.set_interval(m, 1e6)
                 except VehicleError:  # not answered: the battery watch then has what the vehicle sends anyway

@@ -36,6 +36,8 @@ LBF = 4.4482216152605  # N per lbf
 LBFT = LBF * FT  # N m per lbf ft
 SLUG = 14.59390293720636  # kg per slug
 G0 = 9.80665  # m/s^2
+#: JSBSim property scaling the added rotor drag (a payload, a damaged propeller: the airframe's response changes).
+DRAG_SCALE = "aero/rotor-drag-scale"
 MOTORS = ("FR", "AL", "FL", "AR")
 #: Motor positions (forward, right) in metres in the body frame, in MOTORS order (Propulsion.xml, x is aft there).
 MOTOR_XY = np.array([[0.1651, 0.1651], [-0.1651, -0.1651], [0.1651, -0.1651], [-0.1651, 0.1651]])
@@ -144,11 +146,13 @@ class F450Backend:
         # mass 1.4 kg is read back below; the coefficient is lbf per fps: m c V [N] = m c * FT * V[fps] / LBF.
         k = 1.4 * c * FT / LBF
         rotor = (f'<function name="aero/force/DRAG_rotor"><description>linear rotor drag m c V</description>'
-                 f'<product><property>velocities/vt-fps</property><value>{k:.8f}</value></product></function>')
+                 f'<product><property>velocities/vt-fps</property><property>{DRAG_SCALE}</property>'
+                 f'<value>{k:.8f}</value></product></function>')
         marker = '<axis name="DRAG">'
-        if marker not in aero:
-            raise RuntimeError("unexpected F450 Aero.xml layout: no DRAG axis")
+        if marker not in aero or "<aerodynamics>" not in aero:
+            raise RuntimeError("unexpected F450 Aero.xml layout: no aerodynamics/DRAG axis")
         aero = aero.replace(marker, marker + "\n" + rotor, 1)
+        aero = aero.replace("<aerodynamics>", f'<aerodynamics>\n<property value="1.0">{DRAG_SCALE}</property>', 1)
         with open(aero_path, "w") as fh:
             fh.write(aero)
         try:
@@ -270,6 +274,11 @@ class F450Backend:
     def hold(self, on: bool) -> None:
         """Clamp the airframe in place (used while the vehicle sits on the ground)."""
         self.fdm["forces/hold-down"] = 1 if on else 0
+
+    def set_drag_scale(self, k: float) -> None:
+        """The rotor drag times ``k`` (1 = as calibrated; only with ``rotor_drag`` > 0)."""
+        if self.rotor_drag > 0.0:
+            self.fdm[DRAG_SCALE] = k
 
     def set_wind_north(self, mps: float) -> None:
         """Wind toward north [m/s] (JSBSim's NED wind is the direction the air moves to)."""

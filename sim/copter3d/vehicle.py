@@ -179,6 +179,10 @@ class Copter3D:
         """From the next step, each motor produces ``k`` times the thrust its controller commands."""
         self.authority = float(k)
 
+    def set_drag_scale(self, k: float) -> None:
+        """The rotor drag times ``k`` (a payload, dirt, a damaged propeller)."""
+        self.backend.set_drag_scale(k)
+
     def set_wind(self, north_mps: float) -> None:
         """Wind blowing toward north at ``north_mps`` (JSBSim's atmosphere: the drag terms see the air speed)."""
         self.backend.set_wind_north(north_mps)

@@ -82,6 +82,9 @@ def add_condition_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--wind", type=_numbers(1, 4), default=None, metavar="MPS[,RISE[,MAX[,TURB]]]",
                    help="wind toward north: mean speed at take-off, its rise per minute of flight, its cap "
                         "(default 20), gusts as a fraction of it (default 0.3); WIND messages report it")
+    p.add_argument("--drag", type=_numbers(1, 2), default=None, metavar="SCALE[,RISE]",
+                   help="the airframe's drag times SCALE at take-off, rising by RISE per minute of flight (a "
+                        "payload, dirt, a damaged propeller); vehicles with their own aerodynamics (copter3d)")
     p.add_argument("--wind-step", type=_numbers(2, 2, ":"), default=None, metavar="S:MPS",
                    help="after S seconds of flight the mean wind becomes MPS")
 
@@ -111,6 +114,10 @@ def condition_objects(args: argparse.Namespace) -> tuple | None:
                   wind_max_mps=w[2] if len(w) > 2 else 20.0, turbulence=w[3] if len(w) > 3 else 0.3)
     if args.wind_step:
         kw.update(wind_at_s=args.wind_step[0], wind_to_mps=args.wind_step[1])
+    if args.drag:
+        if not args.drag[0] > 0 or (len(args.drag) > 1 and args.drag[1] < 0):
+            raise SimInputError("--drag: SCALE must be positive and RISE not negative")
+        kw.update(drag_scale=args.drag[0], drag_rise_per_min=args.drag[1] if len(args.drag) > 1 else 0.0)
     conditions = Conditions(**kw) if len(kw) > 1 else None
     return (battery, conditions) if battery is not None or conditions is not None else None
 

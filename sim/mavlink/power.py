@@ -89,6 +89,8 @@ class Power:
             used = 0.0 if b is None else 1.0 - b.soc
             if hasattr(f.model, "set_authority"):
                 f.model.set_authority(c.authority(used))
+            if hasattr(f.model, "set_drag_scale"):
+                f.model.set_drag_scale(c.drag())
             if hasattr(f.model, "set_wind"):  # a model with its own air: the wind, not a force
                 f.model.set_wind(c.wind() if airborne else 0.0)
             elif airborne and hasattr(f.model, "disturb"):

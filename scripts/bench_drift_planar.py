@@ -4,8 +4,12 @@ Static: a campaign of --budget N at the default cadence; counts the baseline re-
 Changing: a wind step (40 s of flight, seeded) at the default cadence; records where the test fired (or the
 baseline could no longer fly), the exit code and the message. Writes one JSON line per run to stdout.
 
-    PYTHONPATH=.dev-path python benchmarks/drift/bench_drift.py static 30
-    PYTHONPATH=.dev-path python benchmarks/drift/bench_drift.py wind 30 --wind 0,0,20,0 --wind-step 40:1.0
+    PYTHONPATH=.dev-path python scripts/bench_drift_planar.py static 30
+    PYTHONPATH=.dev-path python scripts/bench_drift_planar.py wind 30 --wind 0,0,20,0 --wind-step 40:1.0
+    python scripts/bench_drift_planar.py static 30 --seed 1 --tune --seed 1 --baseline-every 0
+
+Arguments after ``--tune`` go to ``ksbo-mav tune``. ``reflown_P``: the recommendation re-flown in process from
+the 8 fixed starts (the planar task's re-flown score).
 """
 
 from __future__ import annotations
@@ -15,14 +19,26 @@ import json
 import sys
 import tempfile
 import time
-from contextlib import redirect_stderr
+from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from mav_tune_helpers import sim_and_endpoint  # noqa: E402
 
 from ksbo_mav.cli import main  # noqa: E402
+
+
+def reflown_P(d: Path) -> float | None:
+    """The recommendation's P re-flown in process from the 8 fixed starts (`ksbo-mav evaluate --fixed`)."""
+    res = d / "result.json"
+    if not res.exists():
+        return None
+    x = json.loads(res.read_text())["best"]["x"]
+    out = io.StringIO()
+    with redirect_stdout(out):
+        main(["evaluate", "--gains", ",".join(repr(float(v)) for v in x), "--fixed", "--json"])
+    return json.loads(out.getvalue())["P"]
 
 
 def run(name: str, budget: int, sim_args: list[str], tune_args: list[str]) -> dict:
@@ -40,9 +56,12 @@ def run(name: str, budget: int, sim_args: list[str], tune_args: list[str]) -> di
             "baseline_reflights": sum(e["kind"] == "baseline" for e in entries),
             "baseline_P": [round(e["P"], 3) for e in entries if e["kind"] == "baseline"],
             "first_P": round(entries[0]["P"], 3), "flights": len(entries), "drift": drift,
-            "unsafe_opt": sum(e["kind"] == "opt" and e["P"] < 0 for e in entries)}
+            "unsafe_opt": sum(e["kind"] == "opt" and e["P"] < 0 for e in entries), "tune": tune_args,
+            "reflown_P": reflown_P(d)}
 
 
 if __name__ == "__main__":
     name, budget, rest = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
-    print(json.dumps(run(name, budget, rest, [])), flush=True)
+    tune = rest[rest.index("--tune") + 1:] if "--tune" in rest else []
+    sim = rest[:rest.index("--tune")] if "--tune" in rest else rest
+    print(json.dumps(run(name, budget, sim, tune)), flush=True)
