@@ -30,38 +30,18 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 from _bench_common import machine  # noqa: E402
 from bench_sitl_campaign import SPEED, campaign_vehicle, changed_params  # noqa: E402
-from pymavlink import mavutil  # noqa: E402
 
 from ksbo_sim.sitl import start_sitl  # noqa: E402
 
 
-def set_wind(port: int, speed: float, turb: float) -> list[tuple[str, float]]:
-    """SIM_WIND_SPD / SIM_WIND_TURB over the SITL's second TCP port (the campaign holds the first)."""
-    conn = mavutil.mavlink_connection(f"tcp:127.0.0.1:{port}", source_system=252, source_component=190)
-    echoed = []
-    try:
-        conn.wait_heartbeat(timeout=20)
-        for name, value in (("SIM_WIND_SPD", speed), ("SIM_WIND_TURB", turb)):
-            for _ in range(10):
-                conn.mav.param_set_send(conn.target_system, conn.target_component, name.encode(), value,
-                                        mavutil.mavlink.MAV_PARAM_TYPE_REAL32)
-                msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=1.0)
-                while msg is not None and msg.param_id != name:
-                    msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=1.0)
-                if msg is not None and abs(msg.param_value - value) < 1e-3:
-                    echoed.append((name, msg.param_value))
-                    break
-    finally:
-        conn.close()
-    return echoed
-
-
-def watch_journal(journal: Path, at: int, port: int, speed: float, turb: float, done: threading.Event,
+def watch_journal(journal: Path, at: int, sitl, speed: float, turb: float, done: threading.Event,
                   log: dict) -> None:
-    """Raise the wind once ``at`` trials are journalled (trial ``at`` flies in it)."""
+    """Raise the wind once ``at`` trials are journalled (trial ``at`` flies in it), through the SITL's second TCP
+    port (the campaign holds the first)."""
     while not done.is_set():
         if journal.exists() and len(journal.read_text().splitlines()) >= at:
-            log["wind_set"] = set_wind(port, speed, turb)
+            log["wind_set"] = [(n, sitl.set_param(n, v, second_port=True)) for n, v in
+                               (("SIM_WIND_SPD", speed), ("SIM_WIND_TURB", turb))]
             log["wind_set_at_entries"] = len(journal.read_text().splitlines())
             return
         time.sleep(0.2)
@@ -75,7 +55,7 @@ def run(a: argparse.Namespace) -> dict:
     try:
         d = work / "campaign"
         done = threading.Event()
-        w = threading.Thread(target=watch_journal, args=(d / "journal.jsonl", a.wind_at, sitl.tcp_ports[1], a.wind,
+        w = threading.Thread(target=watch_journal, args=(d / "journal.jsonl", a.wind_at, sitl, a.wind,
                                                           a.turb, done, out), daemon=True)
         w.start()
         t0 = time.time()

@@ -133,16 +133,19 @@ class Sitl:
             shutil.rmtree(self.workdir, ignore_errors=True)
         return self.proc.returncode
 
-    def set_param(self, name: str, value: float, int32: bool = False, timeout: float = 10.0) -> float:
+    def set_param(self, name: str, value: float, int32: bool = False, timeout: float = 10.0,
+                  second_port: bool = False) -> float:
         """Set one parameter over a separate connection (test set-up, e.g. PX4's COM_RCL_EXCEPT for a vehicle
-        with no RC); returns the echoed value. PX4 INT32 values travel byte-wise in the float field."""
+        with no RC); returns the echoed value. PX4 INT32 values travel byte-wise in the float field.
+        ``second_port``: ArduCopter's second TCP port, while a client holds the first (the wind raised
+        mid-campaign)."""
         os.environ.setdefault("MAVLINK20", "1")
         import struct
 
         from pymavlink import mavutil
 
-        conn = mavutil.mavlink_connection(self.device, source_system=253, source_component=190,
-                                          autoreconnect=False)
+        device = f"tcp:127.0.0.1:{self.tcp_ports[1]}" if second_port and self.kind == "ardupilot" else self.device
+        conn = mavutil.mavlink_connection(device, source_system=253, source_component=190, autoreconnect=False)
         try:
             hb = conn.wait_heartbeat(timeout=timeout)
             if hb is None:

@@ -165,3 +165,42 @@ def test_a_finite_battery_stops_the_campaign_safely_and_resume_completes_it(tmp_
     entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
     assert len([e for e in entries if e["kind"] == "opt"]) == 4
     assert entries[n_stopped]["kind"] == "baseline"  # after the swap the baseline flew first, tested for drift
+
+
+@pytest.mark.timeout(900)
+def test_wind_raised_mid_campaign_stops_it_as_a_changed_vehicle(tmp_path):
+    """ArduCopter SITL in calm air, then SIM_WIND_SPD / SIM_WIND_TURB raised (through its second port) once the
+    baseline and two trials have flown: the baseline re-flights track worse than at the start, the drift test
+    fires and the campaign stops (exit 3) with the numbers and "the gains did not cause this", landed and
+    disarmed, every parameter as the snapshot had it (the wind, set by the test, aside)."""
+    from conftest import sitl_or_skip
+
+    d = tmp_path / "wind"
+    sitl = sitl_or_skip("ardupilot", 10)
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *sitl.cli_args, "--prior",
+                                 "none", "--budget", "10", "--baseline-every", "2"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        journal = d / "journal.jsonl"
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and proc.poll() is None:
+            if journal.exists() and len(journal.read_text().splitlines()) >= 3:
+                sitl.set_param("SIM_WIND_SPD", 10.0, second_port=True)
+                sitl.set_param("SIM_WIND_TURB", 2.0, second_port=True)
+                break
+            time.sleep(0.2)
+        err = proc.communicate(timeout=600)[1]
+        assert proc.returncode == 3, err[-3000:]
+        text = " ".join(err.split())
+        assert "stopped: drift: at the baseline gains the lap-2 RMS went from" in text, text[-2000:]
+        assert "the gains did not cause this" in text and f"--resume {d}" in text
+        entries = [json.loads(x) for x in journal.read_text().splitlines() if x.strip()]
+        again = [e for e in entries if e["kind"] == "baseline"]
+        assert len(again) >= 2 and again[-1]["rms"] > 1.25 * entries[0]["rms"]
+        assert not [e for e in entries if e["outcome"] == "crash"]
+        time.sleep(2)
+        now, armed = read_all(sitl, PROFILE)
+        assert not armed
+        assert set(param_diff(d, now)) <= {"SIM_WIND_SPD", "SIM_WIND_TURB"}
+    finally:
+        sitl.stop()
