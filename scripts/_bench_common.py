@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import datetime as _dt
 import os
 import platform
@@ -36,3 +38,18 @@ def write_result(name: str, body: str) -> Path:
     path.write_text(body.strip() + "\n")
     print(f"wrote {path}; `python scripts/benchmarks_page.py` puts its headline into BENCHMARKS.md")
     return path
+
+
+@contextmanager
+def sim_and_endpoint(*extra: str):
+    """Our simulator in its own process (lockstep) sending to a free UDP port; yields (process, the Endpoint a
+    tuner listens on)."""
+    from ksbo_mav.mav.link import Endpoint
+    from ksbo_sim.process import SimProcess, free_udp_port
+
+    port = free_udp_port()
+    sim = SimProcess("--lockstep", *extra, out_port=port)
+    try:
+        yield sim, Endpoint("udp", "127.0.0.1", port)
+    finally:
+        sim.stop()

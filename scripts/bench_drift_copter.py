@@ -35,11 +35,9 @@ import numpy as np
 from pymavlink import mavutil
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from _bench_common import machine  # noqa: E402
-from mav_tune_helpers import sim_and_endpoint  # noqa: E402
+from _bench_common import machine, sim_and_endpoint  # noqa: E402
 
 from ksbo_mav.cli import main  # noqa: E402
 from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402

@@ -22,9 +22,9 @@ import time
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from mav_tune_helpers import sim_and_endpoint  # noqa: E402
+from _bench_common import sim_and_endpoint  # noqa: E402
 
 from ksbo_mav.cli import main  # noqa: E402
 

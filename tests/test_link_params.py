@@ -242,3 +242,40 @@ def test_a_campaign_flies_at_the_rate_asked_and_a_resume_keeps_it(tmp_path) -> N
         _, _, rec = trajectory_from_tlog(read_tlog(tlog))
         assert rec.dt == 40  # ms between setpoints
     assert main(["tune", str(tmp_path / "x"), "--udp", "127.0.0.1:9", "--rate", "30"]) == 2
+
+
+def test_ksbo_mav_sim_link_puts_the_emulator_between_the_vehicle_and_the_ground_station() -> None:
+    import json
+    import signal
+    import subprocess
+    import sys
+
+    port = free_udp_port()
+    proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "sim", "--udp", "127.0.0.1:0", "--out",
+                             f"127.0.0.1:{port}", "--link", "down=4000,up=2000,queue=1024,latency=0.05"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().startswith("ksbo-linkemu ready")
+        assert proc.stdout.readline().startswith("ksbo-sim ready")
+        v = Vehicle.connect(Endpoint("udp", "127.0.0.1", port), "sim-planar")
+        try:
+            assert v.params.read("POS_X_P") == pytest.approx(0.15)
+        finally:
+            v.close()
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=20)
+    stats = json.loads(err.split("link: ", 1)[1].splitlines()[0])
+    assert stats["down"]["frames"] > 10 and stats["up"]["frames"] > 0  # everything went through the radio
+
+
+def test_ksbo_mav_sim_link_without_one_out_is_one_line() -> None:
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "sim", "--udp", "127.0.0.1:0", "--link", "down=4000"],
+                       capture_output=True, text=True, timeout=30)
+    assert r.returncode == 2 and "--link needs exactly one --out" in r.stderr and len(r.stderr.splitlines()) == 1
+    r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "sim", "--out", "127.0.0.1:9", "--link", "down=x"],
+                       capture_output=True, text=True, timeout=30)
+    assert r.returncode == 2 and "link spec" in r.stderr

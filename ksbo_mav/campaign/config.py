@@ -31,6 +31,7 @@ class CampaignConfig:
     n_prior: int = 0  # 0 = default for the prior kind
     confirm: int = 1
     widen: bool = False  # extend a search-box bound the recommendation ends on (ksbo_mav.campaign.widen)
+    warm_start: str | None = None  # a finished campaign's directory to start from (ksbo_mav.campaign.warm_start)
     baseline_every: int = 7  # re-fly the baseline after this many optimiser trials, drift test (0: never)
     on_drift: str = "stop"  # when the drift test fires: "stop" (land, resumable) or "continue" (corrected scores)
     rate_hz: int | None = None  # mission rate (setpoints and telemetry); None: the profile's, lowered by the link check
@@ -60,6 +61,12 @@ class CampaignConfig:
             raise InputError(f"unknown prior {self.prior!r}; choose {', '.join(PRIOR_KINDS)}")
         if not isinstance(self.widen, bool):
             raise InputError(f"widen must be true or false, got {self.widen!r}")
+        if self.warm_start is not None:
+            from ksbo_mav.campaign.layout import CampaignDir
+
+            CampaignDir.at(self.warm_start).read_result()  # InputError unless a finished campaign
+            if self.budget < 2:
+                raise InputError("a warm start needs --budget 2 or more (the baseline and the earlier recommendation)")
         if self.end not in END_MODES:
             raise InputError(f"--end must be land or hold, got {self.end!r}")
         for name in ("sysid", "compid"):

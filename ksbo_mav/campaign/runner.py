@@ -38,6 +38,7 @@ from ksbo_mav.campaign.search import search
 from ksbo_mav.campaign.setup import baseline_params, connect, create_campaign
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
 from ksbo_mav.campaign.trials import TrialLoop
+from ksbo_mav.campaign.warm_start import Earlier, warm_search
 from ksbo_mav.campaign.widen import widen_search
 from ksbo_mav.errors import CampaignPaused, InputError, KsboError
 from ksbo_mav.mav.approach import check_moving_start
@@ -115,6 +116,8 @@ class Campaign:
             base = baseline_params(v, self.dir, self.resume, log)
             check_moving_start(v.mission, limits_from_profile(v.profile, cfg.safety))
             optimizer_options("none", cfg.options, cfg.method, v.profile)  # gain names: before flying
+            if cfg.warm_start:
+                Earlier(cfg.warm_start).check_matches(v)
             if not self.resume:
                 create_campaign(self.dir, cfg, v, base, log)
             record_link(self.dir, link)
@@ -130,9 +133,13 @@ class Campaign:
             started = time.time()
             baseline_trial = trials.fly_baseline(x0)
             with threadpool_limits(1):
-                prior = campaign_prior(prior_kind(cfg, v.profile), cfg, self.dir, v.profile, x0, bounds,
-                                       [e.P for e in journal.of("prior")], lambda x: trials.fly(x, "prior").P, log)
-                result, unused = search(trials, cfg, x0, bounds, prior, self.resume, log)
+                if cfg.warm_start:
+                    prior, result, unused, bounds = warm_search(trials, cfg, v, x0, log)
+                else:
+                    prior = campaign_prior(prior_kind(cfg, v.profile), cfg, self.dir, v.profile, x0, bounds,
+                                           [e.P for e in journal.of("prior")], lambda x: trials.fly(x, "prior").P,
+                                           log)
+                    result, unused = search(trials, cfg, x0, bounds, prior, self.resume, log)
                 if cfg.widen or v.profile.trust_region.widen:
                     result, unused, bounds = widen_search(trials, cfg, v, self.dir, bounds, prior, result, unused, log)
             best = np.asarray(result.x, dtype=float)

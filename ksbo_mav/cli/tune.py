@@ -9,7 +9,7 @@ from ksbo_mav.cli.common import add_connection_args, endpoint_from_args, positiv
 from ksbo_mav.errors import InputError
 
 #: Options that define a campaign; on --resume, one given with a different value than stored is refused.
-_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen", "rate_hz")
+_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen", "rate_hz", "warm_start")
 
 
 def add_parser(subparsers) -> None:
@@ -61,6 +61,10 @@ def add_parser(subparsers) -> None:
                    help="when the vehicle changed at the baseline gains: stop (default: land, restore the baseline, "
                         "resumable after a check of the vehicle) or continue, scoring every trial against the "
                         "baseline as last re-flown")
+    p.add_argument("--warm-start", metavar="EARLIER", help="start from the finished campaign in EARLIER (same profile "
+                   "or vehicle, same gains): its flights are the prior (no flown prior), its recommendation is "
+                   "re-flown right after the baseline so that the vehicle's condition now is known, and --budget "
+                   "counts from the baseline on")
     p.add_argument("--widen", action="store_const", const=True, help="when the recommendation ends on a bound of "
                    "the search box, move that bound out stepwise (never past the gain's documented range) and search "
                    "on from the recommendation; as the profile's [trust_region] widen = true (docs/profiles.md)")

@@ -1,0 +1,129 @@
+"""Warm start: a campaign started from a finished one (`tune --warm-start EARLIER`) on a fresh vehicle of the same
+profile, with nothing changed or with the vehicle changed (wind on ArduCopter SITL; drag on our JSBSim copter).
+
+After the warm campaign, on the vehicle it left hovering, the baseline, the earlier campaign's recommendation and
+the warm campaign's recommendation are flown in turn three times (B E W B E W B E W: the same condition). Records
+the flights the warm campaign made, the first of its flights within the re-flight spread of the earlier result
+(``reached_at``: flight number, the baseline being flight 1), what it said about the vehicle, and the re-flown
+lap-2 RMS. One JSON line per run, appended to benchmarks/warm-start/runs.jsonl.
+
+    python scripts/bench_warm_start.py --earlier DIR --stack ardupilot [--wind 6] [--budget 5]
+    python scripts/bench_warm_start.py --earlier DIR --stack copter3d [--drag 1.5] [--budget 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+os.environ.setdefault("MAVLINK20", "1")
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "scripts"))
+
+from _bench_common import machine  # noqa: E402
+
+from ksbo_mav.mav.link import Endpoint  # noqa: E402
+from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402
+from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
+from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
+
+OUT = ROOT / "benchmarks" / "warm-start" / "runs.jsonl"
+
+
+@contextmanager
+def vehicle(a: argparse.Namespace):
+    """(tune's connection arguments, Endpoint) of a fresh vehicle: ArduCopter SITL at -s 10 (wind set before the
+    campaign) or our JSBSim copter in lockstep (drag set at start)."""
+    if a.stack == "ardupilot":
+        from ksbo_sim.sitl import start_sitl
+
+        sitl = start_sitl("ardupilot", instance=a.instance, speedup=10.0)
+        try:
+            if a.wind:
+                sitl.set_param("SIM_WIND_SPD", a.wind)
+            yield sitl.cli_args, Endpoint("tcp", "127.0.0.1", sitl.tcp_port)
+        finally:
+            sitl.stop()
+    else:
+        from _bench_common import sim_and_endpoint
+
+        extra = ["--drag", f"{a.drag}"] if a.drag != 1.0 else []
+        with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot", *extra) as (_sim, ep):
+            yield ["--udp", f"127.0.0.1:{ep.port}"], ep
+
+
+def refly(d: Path, ep: Endpoint, earlier: dict, warm: dict, n: int = 3) -> dict[str, list[float]]:
+    """Baseline, earlier and warm recommendations flown in turn ``n`` times on the hovering vehicle; lands."""
+    snap = load_snapshot(d)
+    v = Vehicle.connect(ep, snap.profile)
+    try:
+        v.setup_streams()
+        base = snap.baseline()
+        obj = MavlinkObjective(v, base, d / "refly", first_index=0)
+        xs = {"baseline": v.gain_map.from_params(base), "earlier": v.gain_map.from_params(earlier),
+              "warm": v.gain_map.from_params(warm)}
+        out: dict[str, list[float]] = {k: [] for k in xs}
+        for _ in range(n):
+            for k, x in xs.items():
+                out[k].append(obj.fly(x, label=k).score["rms_lap2_m"])
+        v.land()
+        return out
+    finally:
+        v.close()
+
+
+def run(a: argparse.Namespace) -> dict:
+    earlier = json.loads((Path(a.earlier) / "result.json").read_text())["best"]["values"]
+    d = Path(tempfile.mkdtemp(prefix="bench-warm-")) / "campaign"
+    rec: dict = {"stack": a.stack, "earlier": a.earlier, "budget": a.budget, "wind_mps": a.wind, "drag": a.drag}
+    with vehicle(a) as (args, ep):
+        t0 = time.time()
+        r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *args, "--warm-start", a.earlier,
+                            "--budget", str(a.budget), "--end", "hold", "--json"],
+                           capture_output=True, text=True, timeout=3600)
+        rec.update(rc=r.returncode, wall_s=round(time.time() - t0, 1))
+        said = [ln for ln in r.stderr.splitlines() if ln.startswith("warm start: the earlier")]
+        rec["said"] = said[0] if said else r.stderr.strip().splitlines()[-1:]
+        entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
+        rec["flights"] = len(entries)
+        rec["rms_per_flight"] = [round(e["rms"], 3) if e.get("rms") else None for e in entries]
+        rec["unsafe"] = sum(e["kind"] == "opt" and e["P"] < 0 for e in entries)
+        rec["aborted"] = sum(e["outcome"] not in ("ok",) for e in entries)
+        if r.returncode == 0:
+            warm = json.loads((d / "result.json").read_text())["best"]["values"]
+            rec["reflown"] = refly(d, ep, earlier, warm)
+            e_rms = rec["reflown"]["earlier"]
+            spread = max(e_rms) - min(e_rms)
+            target = statistics.mean(e_rms) + max(spread, 0.005)
+            rec["reached_at"] = next((i + 1 for i, x in enumerate(rec["rms_per_flight"]) if x is not None
+                                      and i > 0 and x <= target), None)
+    rec["machine"] = machine()
+    return rec
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--earlier", required=True, help="the finished campaign to start from")
+    ap.add_argument("--stack", choices=("ardupilot", "copter3d"), default="ardupilot")
+    ap.add_argument("--budget", type=int, default=5)
+    ap.add_argument("--wind", type=float, default=0.0, help="ArduCopter SITL: SIM_WIND_SPD for the warm campaign")
+    ap.add_argument("--drag", type=float, default=1.0, help="copter3d: the drag, times as built")
+    ap.add_argument("--instance", type=int, default=12)
+    a = ap.parse_args()
+    r = run(a)
+    print(json.dumps(r), flush=True)
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    with open(OUT, "a") as fh:
+        fh.write(json.dumps(r) + "\n")
+
+
+if __name__ == "__main__":
+    main()
