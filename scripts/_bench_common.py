@@ -53,3 +53,28 @@ def sim_and_endpoint(*extra: str):
         yield sim, Endpoint("udp", "127.0.0.1", port)
     finally:
         sim.stop()
+
+
+def refly_in_turn(d, ep, gains: dict[str, dict[str, float]], n: int = 3) -> dict[str, list[float]]:
+    """On the vehicle the campaign in ``d`` left hovering (reached at Endpoint ``ep``): the baseline, then each of
+    ``gains`` ({label: {parameter: value}}), flown in turn ``n`` times (the same condition on average) through the
+    tuner's own objective; lands. Returns {"baseline" and each label: lap-2 RMS of each flight}."""
+    from ksbo_mav.mav.objective import MavlinkObjective
+    from ksbo_mav.mav.snapshot import load_snapshot
+    from ksbo_mav.mav.vehicle import Vehicle
+
+    snap = load_snapshot(d)
+    v = Vehicle.connect(ep, snap.profile)
+    try:
+        v.setup_streams()
+        base = snap.baseline()
+        obj = MavlinkObjective(v, base, Path(d) / "refly", first_index=0)
+        xs = {"baseline": v.gain_map.from_params(base), **{k: v.gain_map.from_params(g) for k, g in gains.items()}}
+        out: dict[str, list[float]] = {k: [] for k in xs}
+        for _ in range(n):
+            for k, x in xs.items():
+                out[k].append(obj.fly(x, label=k).score["rms_lap2_m"])
+        v.land()
+        return out
+    finally:
+        v.close()

@@ -37,12 +37,10 @@ from pymavlink import mavutil
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from _bench_common import machine, sim_and_endpoint  # noqa: E402
+from _bench_common import machine, refly_in_turn, sim_and_endpoint  # noqa: E402
 
 from ksbo_mav.cli import main  # noqa: E402
-from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402
 from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
-from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
 from ksbo_sim.copter3d import Copter3D, Figure8H  # noqa: E402
 
 SIM = ["--vehicle", "copter3d", "--personality", "ardupilot"]
@@ -76,25 +74,6 @@ def vehicle_times(tlog: Path) -> tuple[float, float]:
     return (ts[0], ts[-1]) if ts else (float("nan"), float("nan"))
 
 
-def refly(d: Path, ep, best: dict[str, float], n: int = 3) -> tuple[list[float], list[float]]:
-    """Baseline and recommendation re-flown alternately on the vehicle the campaign left hovering."""
-    snap = load_snapshot(d)
-    v = Vehicle.connect(ep, snap.profile)
-    try:
-        v.setup_streams()
-        base = snap.baseline()
-        obj = MavlinkObjective(v, base, d / "refly", first_index=0)
-        x0, xb = v.gain_map.from_params(base), v.gain_map.from_params(best)
-        b, r = [], []
-        for _ in range(n):
-            b.append(obj.fly(x0, label="baseline").score["rms_lap2_m"])
-            r.append(obj.fly(xb, label="recommendation").score["rms_lap2_m"])
-        v.land()
-        return b, r
-    finally:
-        v.close()
-
-
 def campaign(name: str, budget: int, rise: float, seed: int) -> dict:
     d = Path(tempfile.mkdtemp(prefix=f"drift-copter-{name}-")) / "camp"
     sim = [*SIM, "--seed", str(seed)] + (["--drag", f"1,{rise}"] if name != "static" else [])
@@ -107,7 +86,8 @@ def campaign(name: str, budget: int, rise: float, seed: int) -> dict:
                        str(seed), "--end", "hold", "--json", *tune])
         wall = time.time() - t
         res = json.loads((d / "result.json").read_text()) if (d / "result.json").exists() else None
-        reflown = refly(d, ep, res["best"]["values"]) if rc == 0 and res else None
+        flown = refly_in_turn(d, ep, {"recommendation": res["best"]["values"]}) if rc == 0 and res else None
+        reflown = (flown["baseline"], flown["recommendation"]) if flown else None
     entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
     base_values = load_snapshot(d).baseline()
     t_first = vehicle_times(Path(entries[0]["record"]).with_suffix(".tlog"))[0] - TAKEOFF_S

@@ -9,6 +9,7 @@ lap-2 RMS. One JSON line per run, appended to benchmarks/warm-start/runs.jsonl.
 
     python scripts/bench_warm_start.py --earlier DIR --stack ardupilot [--wind 6] [--budget 5]
     python scripts/bench_warm_start.py --earlier DIR --stack copter3d [--drag 1.5] [--budget 5]
+    python scripts/bench_warm_start.py --report     # benchmarks/warm-start/results.md from the runs
 """
 
 from __future__ import annotations
@@ -28,12 +29,9 @@ os.environ.setdefault("MAVLINK20", "1")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from _bench_common import machine  # noqa: E402
+from _bench_common import machine, refly_in_turn  # noqa: E402
 
 from ksbo_mav.mav.link import Endpoint  # noqa: E402
-from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402
-from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
-from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "warm-start" / "runs.jsonl"
 
@@ -60,26 +58,6 @@ def vehicle(a: argparse.Namespace):
             yield ["--udp", f"127.0.0.1:{ep.port}"], ep
 
 
-def refly(d: Path, ep: Endpoint, earlier: dict, warm: dict, n: int = 3) -> dict[str, list[float]]:
-    """Baseline, earlier and warm recommendations flown in turn ``n`` times on the hovering vehicle; lands."""
-    snap = load_snapshot(d)
-    v = Vehicle.connect(ep, snap.profile)
-    try:
-        v.setup_streams()
-        base = snap.baseline()
-        obj = MavlinkObjective(v, base, d / "refly", first_index=0)
-        xs = {"baseline": v.gain_map.from_params(base), "earlier": v.gain_map.from_params(earlier),
-              "warm": v.gain_map.from_params(warm)}
-        out: dict[str, list[float]] = {k: [] for k in xs}
-        for _ in range(n):
-            for k, x in xs.items():
-                out[k].append(obj.fly(x, label=k).score["rms_lap2_m"])
-        v.land()
-        return out
-    finally:
-        v.close()
-
-
 def run(a: argparse.Namespace) -> dict:
     earlier = json.loads((Path(a.earlier) / "result.json").read_text())["best"]["values"]
     d = Path(tempfile.mkdtemp(prefix="bench-warm-")) / "campaign"
@@ -90,8 +68,9 @@ def run(a: argparse.Namespace) -> dict:
                             "--budget", str(a.budget), "--end", "hold", "--json"],
                            capture_output=True, text=True, timeout=3600)
         rec.update(rc=r.returncode, wall_s=round(time.time() - t0, 1))
-        said = [ln for ln in r.stderr.splitlines() if ln.startswith("warm start: the earlier")]
-        rec["said"] = said[0] if said else r.stderr.strip().splitlines()[-1:]
+        text = " ".join(r.stderr.split())  # the console wraps its lines
+        i = text.find("warm start: the earlier recommendation")
+        rec["said"] = text[i:text.find(" opt trial", i)] if i >= 0 else text[-300:]
         entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
         rec["flights"] = len(entries)
         rec["rms_per_flight"] = [round(e["rms"], 3) if e.get("rms") else None for e in entries]
@@ -99,7 +78,7 @@ def run(a: argparse.Namespace) -> dict:
         rec["aborted"] = sum(e["outcome"] not in ("ok",) for e in entries)
         if r.returncode == 0:
             warm = json.loads((d / "result.json").read_text())["best"]["values"]
-            rec["reflown"] = refly(d, ep, earlier, warm)
+            rec["reflown"] = refly_in_turn(d, ep, {"earlier": earlier, "warm": warm})
             e_rms = rec["reflown"]["earlier"]
             spread = max(e_rms) - min(e_rms)
             target = statistics.mean(e_rms) + max(spread, 0.005)
@@ -109,7 +88,50 @@ def run(a: argparse.Namespace) -> dict:
     return rec
 
 
+def _mean(xs: list[float]) -> str:
+    return f"{statistics.mean(xs):.3f}"
+
+
+def report() -> None:
+    """benchmarks/warm-start/results.md: one row per run of runs.jsonl."""
+    runs = [json.loads(x) for x in OUT.read_text().splitlines() if x.strip()]
+    rows = []
+    for r in runs:
+        cond = (f"wind {r['wind_mps']:g} m/s" if r["wind_mps"] else f"drag x{r['drag']:g}" if r["drag"] != 1.0
+                else "nothing changed")
+        said = r["said"].split(": ", 1)[1] if ": " in r["said"] else r["said"]
+        ref = r.get("reflown") or {}
+        rows.append(f"| {'ArduCopter SITL' if r['stack'] == 'ardupilot' else 'JSBSim copter'} | {cond} | "
+                    f"{r['flights']} | {r.get('reached_at') or '–'} | {said} | "
+                    f"{_mean(ref['baseline']) if ref else '–'} | {_mean(ref['earlier']) if ref else '–'} | "
+                    f"{_mean(ref['warm']) if ref else '–'} | {r['unsafe']} / {r['aborted']} |")
+    text = "\n".join([
+        "# Warm start: a campaign from a finished one",
+        "",
+        "Command: `python scripts/bench_warm_start.py --earlier DIR --stack ardupilot|copter3d [--wind MPS] [--drag "
+        "X] --budget 5`, then `--report`. The earlier campaigns: `--budget 30` with the default prior on the same "
+        "profile (ArduCopter SITL calm, and our JSBSim copter static, from the drift benchmarks). Each warm "
+        "campaign runs on a fresh vehicle; then the baseline (B), the earlier recommendation (E) and the warm one "
+        "(W) are flown in turn three times on the vehicle it left hovering (B E W x3, the same condition; means "
+        "below).",
+        "",
+        f"Machine: {runs[-1]['machine']}. Flights: every flight of the warm campaign (baseline, the earlier "
+        "recommendation, optimiser trials, confirmation). Reached at: the first of its flights (the baseline "
+        "being 1) whose lap-2 RMS is within the re-flight spread of E's.",
+        "",
+        "| vehicle | condition | flights | reached at | what it said | B (m) | E (m) | W (m) | unsafe / aborted |",
+        "|---|---|---|---|---|---|---|---|---|",
+        *rows,
+        "",
+    ])
+    (OUT.parent / "results.md").write_text(text)
+    print(f"wrote {OUT.parent / 'results.md'}")
+
+
 def main() -> None:
+    if "--report" in sys.argv:
+        report()
+        return
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--earlier", required=True, help="the finished campaign to start from")
     ap.add_argument("--stack", choices=("ardupilot", "copter3d"), default="ardupilot")

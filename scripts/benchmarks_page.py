@@ -93,6 +93,7 @@ MARKDOWN_OUTPUTS = {
     "log_scoring": ("Flight-log scoring", "log-scoring/results.md", 1, ""),
     "link_rates": ("The same gains at 50, 20 and 10 Hz", "link-rates/results.md", 1,
                    "Reading: [docs/links.md](docs/links.md)."),
+    "warm_start": ("Warm start from a finished campaign", "warm-start/results.md", 1, ""),
     "drift": ("A vehicle that changes: drift, wind, the re-flights' cost", "drift/results.md", 1,
               "Reading: [docs/optimizer.md](docs/optimizer.md), its section on a vehicle that changes."),
 }
