@@ -10,12 +10,12 @@ The test is one-sided and robust. Each baseline flight's change from the first i
 ``s`` is estimated from the successive differences of the re-flights (1.4826 x their median absolute deviation
 / sqrt 2: a steady trend does not inflate it). The newest re-flight shows a change when ``d`` exceeds
 ``max(floor, 3 s)``; the floor is :attr:`DriftWatch.rms_ratio` - 1 (re-flights of the same gains on ArduCopter
-SITL spread by about 5 %) or :attr:`DriftWatch.p_drop`. A change is then confirmed by flying the baseline again
+SITL spread by about 10 %) or :attr:`DriftWatch.p_drop`. A change is then confirmed by flying the baseline again
 at once: only when that flight shows it too does the test fire. When it fires, the vehicle changed, not the
 gains, and the campaign says so with the numbers. By default (``on_drift = "stop"``) it stops in a safe state
 (baseline restored, landed, report written), to be resumed after a check of the vehicle. With ``"continue"`` it
 goes on with drift-corrected scores (:meth:`DriftWatch.corrected`): each trial is scored against the baseline
-as last re-flown (held between re-flights), not against the first flight.
+as last re-flown, carried forward along the trend of the baseline flights, not against the first flight.
 """
 
 from __future__ import annotations

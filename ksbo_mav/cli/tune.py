@@ -60,7 +60,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--on-drift", choices=("stop", "continue"),
                    help="when the vehicle changed at the baseline gains: stop (default: land, restore the baseline, "
                         "resumable after a check of the vehicle) or continue, scoring every trial against the "
-                        "baseline as last re-flown")
+                        "baseline as last re-flown, carried along its trend")
     p.add_argument("--warm-start", metavar="EARLIER", help="start from the finished campaign in EARLIER (same profile "
                    "or vehicle, same gains): its flights are the prior (no flown prior), its recommendation is "
                    "re-flown right after the baseline so that the vehicle's condition now is known, and --budget "
