@@ -48,11 +48,8 @@ def sim_and_endpoint(*extra: str):
     from ksbo_sim.process import SimProcess, free_udp_port
 
     port = free_udp_port()
-    sim = SimProcess("--lockstep", *extra, out_port=port)
-    try:
+    with SimProcess("--lockstep", *extra, out_port=port) as sim:
         yield sim, Endpoint("udp", "127.0.0.1", port)
-    finally:
-        sim.stop()
 
 
 def refly_in_turn(d, ep, gains: dict[str, dict[str, float]], n: int = 3) -> dict[str, list[float]]:

@@ -31,7 +31,6 @@ import time
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
-import numpy as np
 from pymavlink import mavutil
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,7 +40,7 @@ from _bench_common import machine, refly_in_turn, sim_and_endpoint  # noqa: E402
 
 from ksbo_mav.cli import main  # noqa: E402
 from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
-from ksbo_sim.copter3d import Copter3D, Figure8H  # noqa: E402
+from ksbo_sim.copter3d import Copter3D, Figure8H, fly  # noqa: E402
 
 SIM = ["--vehicle", "copter3d", "--personality", "ardupilot"]
 TAKEOFF_S = 10.0  # flight time before trial 0's first sample (the climb to the mission's start)
@@ -53,16 +52,8 @@ def lap2_rms(values: dict[str, float], drag: float) -> float:
     v = Copter3D("ardupilot")
     for k, x in values.items():
         v.set_param(k, x)
-    fig = Figure8H()
-    v.reset(pos=fig.start())
-    t = fig.sample_times()
-    err = np.empty(len(t))
-    for i, tk in enumerate(t):
-        v.set_drag_scale(drag)
-        st = v.step(fig.setpoint(float(tk)))
-        err[i] = np.linalg.norm(st.pos - fig.position(np.array([(i + 1) / fig.rate_hz]))[0])
-    lap2 = (np.arange(len(t)) + 1) / fig.rate_hz > fig.duration - fig.period
-    return float(np.sqrt(np.mean(err[lap2] ** 2)))
+    v.set_drag_scale(drag)
+    return fly(v, Figure8H()).rms_lap2
 
 
 def vehicle_times(tlog: Path) -> tuple[float, float]:

@@ -125,19 +125,11 @@ def test_px4_personality_flies_the_figure8():
 
 
 def _lap2_rms(drag: float = 1.0, wind: float = 0.0) -> float:
-    """In process, the hooks applied before every step as the MAVLink endpoint does."""
+    """In process; the changed drag and wind hold over the flight's reset."""
     v = Copter3D("ardupilot")
-    fig = Figure8H()
-    v.reset(pos=fig.start())
-    t = fig.sample_times()
-    err = []
-    for i, tk in enumerate(t):
-        v.set_drag_scale(drag)
-        v.set_wind(wind)
-        st = v.step(fig.setpoint(float(tk)))
-        err.append(np.linalg.norm(st.pos - fig.position(np.array([(i + 1) / fig.rate_hz]))[0]))
-    e = np.array(err)[(np.arange(len(t)) + 1) / fig.rate_hz > fig.duration - fig.period]
-    return float(np.sqrt(np.mean(e ** 2)))
+    v.set_drag_scale(drag)
+    v.set_wind(wind)
+    return fly(v, Figure8H()).rms_lap2
 
 
 def test_drag_and_wind_degrade_the_tracking_and_lost_thrust_does_not():

@@ -110,13 +110,12 @@ class TrialLoop:
             self.log("the baseline flew worse than at the start: flying it again at once to tell noise from a "
                      "changed vehicle")
             self._refly_baseline()
-            was = drift.fired
             try:
                 drift.confirm(self.journal)  # CampaignPaused (stop mode) when the vehicle changed
             except CampaignPaused:
                 save_drift(self.objective.out_dir.parent, drift.message(self.journal), drift.on_drift)
                 raise
-            if drift.fired and not was:
+            if drift.fired:  # continue mode, fired just now
                 save_drift(self.objective.out_dir.parent, drift.fired, drift.on_drift)
                 self.log(f"{drift.fired}; continuing with every trial scored against the baseline as re-flown, "
                          "carried along its trend")

@@ -112,4 +112,3 @@ def say_condition(earlier: Earlier, again: Any, log: Callable[[str], None]) -> N
         return
     log(f"warm start: {what}: " + ("the vehicle or its conditions changed; the earlier flights stay the prior, "
                                    "this campaign's flights correct them" if changed else "nothing changed"))
-

@@ -69,6 +69,9 @@ class Copter3D:
         self.att_ctrl = AttitudeController(self.af, physics_dt, att_g)
         #: Thrust produced per thrust commanded (1 = as built; lower = warm motors, a sagging pack).
         self.authority = 1.0
+        #: The rotor drag, times as calibrated, and the wind toward north [m/s]: kept over resets, as the
+        #: authority is (a JSBSim reset puts its properties back to their initial values).
+        self.drag_scale, self.wind_north = 1.0, 0.0
         self.reset()
 
     # --- parameters -------------------------------------------------------------------------------------
@@ -92,6 +95,8 @@ class Copter3D:
         pos = np.zeros(3) if pos is None else np.asarray(pos, dtype=float)
         vel = np.zeros(3) if vel is None else np.asarray(vel, dtype=float)
         self.backend.reset(pos, vel)
+        self.backend.set_drag_scale(self.drag_scale)
+        self.backend.set_wind_north(self.wind_north)
         self.pos_ctrl.reset()
         self.att_ctrl.reset(0.0)
         self._tgt_p = [float(v) for v in pos]
@@ -181,11 +186,13 @@ class Copter3D:
 
     def set_drag_scale(self, k: float) -> None:
         """The rotor drag times ``k`` (a payload, dirt, a damaged propeller)."""
-        self.backend.set_drag_scale(k)
+        self.drag_scale = float(k)
+        self.backend.set_drag_scale(self.drag_scale)
 
     def set_wind(self, north_mps: float) -> None:
         """Wind blowing toward north at ``north_mps`` (JSBSim's atmosphere: the drag terms see the air speed)."""
-        self.backend.set_wind_north(north_mps)
+        self.wind_north = float(north_mps)
+        self.backend.set_wind_north(self.wind_north)
 
     def _check(self, s: list[float]) -> int:
         v = self._values
