@@ -121,11 +121,16 @@ def resolve(command_line: Mapping[str, Any] | None = None, stored: Mapping[str, 
     return out
 
 
+#: Profiles whose vehicle class has an in-process simulator (the planar task; our JSBSim copter for the copters):
+#: their "auto" prior is simulator episodes, nothing flown.
+SIM_PRIOR_PROFILES = ("sim-planar", "ardupilot-copter", "px4-copter")
+
+
 def prior_kind(cfg: CampaignConfig, profile: Any) -> str:
     """The prior a campaign flies: ``cfg.prior`` (the command line's or the stored campaign's), for "auto" what
-    the profile implies (simulator episodes for the built-in planar vehicle), else a flown local prior."""
+    the profile implies (simulator episodes where the vehicle class has a simulator), else a flown local prior."""
     return resolve(command_line={} if cfg.prior == "auto" else {"prior": cfg.prior},
-                   profile={"prior": "sim"} if profile is not None and profile.name == "sim-planar" else {},
+                   profile={"prior": "sim"} if profile is not None and profile.name in SIM_PRIOR_PROFILES else {},
                    default={"prior": "local"})["prior"]
 
 
@@ -158,11 +163,12 @@ def optimizer_options(prior_kind: str, user: dict[str, Any], method: str = "", p
 
     Every mission score here is bounded above by 1 (P(a) <= 1; 3-D: 1 - RMS / (2 RMS_baseline)), which is also
     the prior scale of P the benchmark campaign uses; the generic default (2 |P(a0)|) is far too tight. A simulator
-    prior (``prior_kind == "sim"``) is a dense cloud around the baseline of the same task: its good points are a
-    fair head start, so candidates may grow around any of them (``explore_from="all"``); a flown or no prior keeps
-    the library default, growth from the baseline gains.
+    prior (``prior_kind == "sim"``) on the planar task is a dense cloud around the baseline of the same task: its
+    good points are a fair head start, so candidates may grow around any of them (``explore_from="all"``); a
+    copter's simulator prior (another model of the vehicle class), a flown or no prior keep the library default,
+    growth from the baseline gains.
     """
     base: dict[str, Any] = {"signal_std": 1.0, "y_max": 1.0}
-    if prior_kind == "sim":
+    if prior_kind == "sim" and (profile is None or profile.name == "sim-planar"):
         base["explore_from"] = "all"
     return resolve(command_line=user, profile=profile_defaults(method, profile), default=base)

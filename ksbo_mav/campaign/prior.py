@@ -25,13 +25,11 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
         if d.prior.exists():
             doc = json.loads(d.prior.read_text())
             return np.array(doc["X"]), np.array(doc["y"])
-        from ksbo_mav.objective import SimObjective
-
         n = prior_size(cfg, kind)
         X = local_prior_design(n, x0, bounds, cfg.seed, radius=SIM_PRIOR_RADIUS)
-        y = SimObjective(profile, seed=cfg.seed).batch(X)
+        what, y = simulated_prior(profile, X, cfg.seed, log)
         fsync_write(d.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist()}))
-        log(f"prior: {n} simulator episodes around the baseline (in process, nothing flown)")
+        log(f"prior: {n} {what} episodes around the baseline (in process, nothing flown)")
         return X, y
     n = prior_size(cfg, kind)
     X = local_prior_design(n, x0, bounds, cfg.seed)
@@ -40,6 +38,30 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
         log(f"prior trial {k + 1}/{n} (local LHS around the baseline)")
         y.append(fly(X[k]))
     return X, np.array(y)
+
+
+def simulated_prior(profile: Any, X: np.ndarray, seed: int, log: Callable[[str], None]) -> tuple[str, np.ndarray]:
+    """(name of the simulator, (n,) P of each row of X (n, d)) flown in process: the planar simulator for the
+    planar profile, our JSBSim copter for the copter profiles (the vehicle class the profile names; P scored
+    against its own baseline flight, as on the vehicle). An aborted or crashed episode gives the P of an abort
+    (-0.1) so that the model sees where the simulated vehicle failed."""
+    from ksbo_mav.copter_objective import COPTER_PLANTS
+
+    plant = next((k for k, (name, _) in COPTER_PLANTS.items() if name == profile.name), None)
+    if plant is None:
+        from ksbo_mav.objective import SimObjective
+
+        return "simulator", SimObjective(profile, seed=seed).batch(X)
+    from ksbo_mav.copter_objective import CopterObjective
+
+    obj = CopterObjective(plant)
+    y = []
+    for k, x in enumerate(X):
+        if k % 8 == 0:
+            log(f"prior: simulating {k + 1}-{min(k + 8, len(X))} of {len(X)} on the JSBSim copter")
+        e = obj(x)
+        y.append(e.value if e.value is not None and e.outcome.value == "complete" else -0.1)
+    return "JSBSim copter", np.asarray(y, dtype=float)
 
 
 #: Half-widths (unit cube of the optimiser box) of the priors around the baseline: flown (``--prior local``) and

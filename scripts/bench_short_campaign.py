@@ -1,0 +1,147 @@
+"""Flights to 90 %: how many flights a copter campaign needs before its best gains, re-flown by separate flights,
+give 90 % of the lap-RMS cut that a long (~40-flight) campaign's recommendation gives.
+
+One run: a fresh vehicle (ArduCopter SITL at -s 10, calm or in wind; PX4 SITL at -s 5; our JSBSim copter in
+lockstep), ``ksbo-mav tune`` with the given options, then, on the vehicle it left hovering, the baseline (B), the
+long campaign's recommendation (L, ``--reference DIR``), this campaign's recommendation (R) and its best-so-far
+gains at the last few flights where they changed (the flight's own lap RMS, no model value) flown in turn three
+times each (the same condition). 90 % is reached at flight k when the best-so-far gains after flight k re-fly
+(mean) at or below ``B - 0.9 (B - L)``; flights count the baseline as 1 and every flight the campaign made
+(prior, re-flights of the baseline, confirmation). One JSON line per run, appended to
+benchmarks/short-campaign/runs.jsonl; ``--report`` writes benchmarks/short-campaign/results.md.
+
+    python scripts/bench_short_campaign.py --stack ardupilot --reference DIR --seed 0 [--wind 5 --turb 1] -- TUNE-ARGS
+    python scripts/bench_short_campaign.py --stack px4 --seed 0 -- --budget 30        # a long (reference) campaign
+    python scripts/bench_short_campaign.py --report
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+os.environ.setdefault("MAVLINK20", "1")
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "scripts"))
+
+from _bench_common import machine, refly_in_turn  # noqa: E402
+
+OUT = ROOT / "benchmarks" / "short-campaign" / "runs.jsonl"
+SPEED = {"ardupilot": 10.0, "px4": 5.0}
+N_CANDIDATES = 4
+
+
+@contextmanager
+def vehicle(a: argparse.Namespace):
+    """(tune's connection arguments, Endpoint) of a fresh vehicle."""
+    if a.stack in SPEED:
+        from bench_sitl_campaign import endpoint
+
+        from ksbo_sim.sitl import start_sitl
+
+        sitl = start_sitl(a.stack, instance=a.instance, speedup=SPEED[a.stack])
+        try:
+            if a.stack == "px4":
+                sitl.set_param("COM_RCL_EXCEPT", 4, int32=True)  # no RC in SITL: allow OFFBOARD without it
+            if a.wind:
+                sitl.set_param("SIM_WIND_SPD", a.wind)
+                sitl.set_param("SIM_WIND_TURB", a.turb)
+            yield endpoint(sitl)
+        finally:
+            sitl.stop()
+    else:
+        from _bench_common import sim_and_endpoint
+
+        with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot") as (_sim, ep):
+            yield ["--udp", f"127.0.0.1:{ep.port}"], ep
+
+
+def best_so_far(entries: list[dict], names: list[str]) -> list[tuple[int, dict[str, float], float]]:
+    """[(flight number, gains, its flown lap RMS)] each time the best flown gains changed (baseline excluded)."""
+    out: list[tuple[int, dict[str, float], float]] = []
+    best = None
+    for k, e in enumerate(entries):
+        if k == 0 or e["kind"] == "baseline" or e["outcome"] != "ok" or not e.get("rms"):
+            continue
+        if best is None or e["rms"] < best:
+            best = e["rms"]
+            out.append((k + 1, dict(zip(names, e["x"])), e["rms"]))
+    return out
+
+
+def run(a: argparse.Namespace) -> dict:
+    d = Path(tempfile.mkdtemp(prefix="bench-short-")) / "campaign"
+    rec: dict = {"stack": a.stack, "wind_mps": a.wind, "turb": a.turb, "seed": a.seed, "tune_args": a.tune,
+                 "reference": a.reference}
+    with vehicle(a) as (args, ep):
+        t0 = time.time()
+        r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *args, "--seed", str(a.seed),
+                            "--end", "hold", "--json", *a.tune], capture_output=True, text=True, timeout=7200)
+        rec.update(rc=r.returncode, wall_s=round(time.time() - t0, 1), dir=str(d))
+        if r.returncode != 0:
+            rec["error"] = (r.stderr.strip().splitlines() or ["?"])[-1][:300]
+            return rec
+        entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
+        best = json.loads((d / "result.json").read_text())["best"]
+        names = list(best["values"])
+        rec["flights"] = len(entries)
+        rec["kinds"] = {k: sum(e["kind"] == k for e in entries) for k in sorted({e["kind"] for e in entries})}
+        rec["rms_per_flight"] = [round(e["rms"], 4) if e.get("rms") else None for e in entries]
+        rec["unsafe"] = sum(e["kind"] == "opt" and e["P"] < 0 for e in entries)
+        rec["aborted"] = sum(e["outcome"] != "ok" for e in entries)
+        cands = best_so_far(entries, names)[-N_CANDIDATES:]
+        rec["candidates"] = [(k, round(rms, 4)) for k, _, rms in cands]
+        gains = {"rec": best["values"], **{f"f{k}": g for k, g, _ in cands}}
+        if a.reference:
+            gains["long"] = json.loads((Path(a.reference) / "result.json").read_text())["best"]["values"]
+        rec["reflown"] = refly_in_turn(d, ep, gains)
+        rec["best_values"] = best["values"]
+    m = {k: statistics.mean(v) for k, v in rec["reflown"].items()}
+    rec["cut"] = 1 - m["rec"] / m["baseline"]
+    if "long" in m:
+        target = m["baseline"] - 0.9 * (m["baseline"] - m["long"])
+        rec["target_rms"] = target
+        hits = [k for k, _, _ in cands if m[f"f{k}"] <= target]
+        rec["flights_to_90"] = min(hits) if hits else (rec["flights"] if m["rec"] <= target else None)
+        rec["share_of_long"] = (m["baseline"] - m["rec"]) / (m["baseline"] - m["long"])
+    rec["machine"] = machine()
+    return rec
+
+
+def main() -> None:
+    if "--report" in sys.argv:
+        from bench_short_campaign_report import report
+
+        report(OUT)
+        return
+    argv = sys.argv[1:]
+    tune = argv[argv.index("--") + 1:] if "--" in argv else []
+    argv = argv[:argv.index("--")] if "--" in argv else argv
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--stack", choices=("ardupilot", "px4", "copter3d"), default="ardupilot")
+    ap.add_argument("--reference", help="the long campaign whose recommendation is 100 %")
+    ap.add_argument("--label", default="", help="a name for the configuration (the report groups by it)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--wind", type=float, default=0.0, help="SITL: SIM_WIND_SPD (m/s)")
+    ap.add_argument("--turb", type=float, default=0.0, help="SITL: SIM_WIND_TURB")
+    ap.add_argument("--instance", type=int, default=12)
+    a = ap.parse_args(argv)
+    a.tune = tune
+    r = run(a)
+    r["label"] = a.label
+    print(json.dumps(r), flush=True)
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    with open(OUT, "a") as fh:
+        fh.write(json.dumps(r) + "\n")
+
+
+if __name__ == "__main__":
+    main()
