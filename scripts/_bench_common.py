@@ -70,8 +70,25 @@ def refly_in_turn(d, ep, gains: dict[str, dict[str, float]], n: int = 3) -> dict
         out: dict[str, list[float]] = {k: [] for k in xs}
         for _ in range(n):
             for k, x in xs.items():
-                out[k].append(obj.fly(x, label=k).score["rms_lap2_m"])
+                out[k].append(_fly_retrying(obj, x, k))
         v.land()
         return out
     finally:
         v.close()
+
+
+def _fly_retrying(obj, x, label: str, tries: int = 3) -> float:
+    """Lap-2 RMS of one flight of ``x``; a flight the tuner stopped for its own sake (it fell behind the vehicle on
+    a loaded machine, the link) is flown again, up to ``tries`` times, and said on stderr."""
+    import sys
+
+    from ksbo_mav.errors import TrialStopped
+
+    for k in range(tries):
+        try:
+            return obj.fly(x, label=label).score["rms_lap2_m"]
+        except TrialStopped as e:
+            print(f"re-flight of {label} stopped ({e}); flying it again", file=sys.stderr)
+            if k == tries - 1:
+                raise
+    raise AssertionError("unreachable")

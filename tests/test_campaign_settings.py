@@ -15,6 +15,13 @@ from ksbo_mav.profiles import load_profile
 AP, PLANAR = load_profile("ardupilot-copter"), load_profile("sim-planar")
 
 
+def _renamed(profile, name: str):
+    """A user's own profile: the same vehicle under a name with no simulator of its class."""
+    import dataclasses
+
+    return dataclasses.replace(profile, name=name)
+
+
 @pytest.mark.parametrize("levels,want", [
     ({"default": {"k": 1}}, 1),
     ({"profile": {"k": 2}, "default": {"k": 1}}, 2),
@@ -56,7 +63,8 @@ def _new_args(tmp_path, *cli: str):
     # the prior: the campaign's choice, else the profile's (simulator episodes for the planar vehicle), else local
     ("prior", "command_line", lambda tmp: prior_kind(CampaignConfig(dir="x", prior="none"), PLANAR), "none"),
     ("prior", "profile", lambda tmp: prior_kind(CampaignConfig(dir="x"), PLANAR), "sim"),
-    ("prior", "default", lambda tmp: prior_kind(CampaignConfig(dir="x"), AP), "local"),
+    ("prior", "profile (copter)", lambda tmp: prior_kind(CampaignConfig(dir="x"), AP), "sim"),
+    ("prior", "default", lambda tmp: prior_kind(CampaignConfig(dir="x"), _renamed(AP, "my-hexa")), "local"),
     ("n_prior", "command_line", lambda tmp: prior_size(CampaignConfig(dir="x", n_prior=5), "local"), 5),
     ("n_prior", "default (local)", lambda tmp: prior_size(CampaignConfig(dir="x"), "local"), 8),
     ("n_prior", "default (sim)", lambda tmp: prior_size(CampaignConfig(dir="x"), "sim"), 36),

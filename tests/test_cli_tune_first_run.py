@@ -112,8 +112,9 @@ def test_dry_run_prints_the_flight_plan_and_writes_nothing(tmp_path):
     r = _tune_against_sim(d, "--dry-run", "--budget", "12", "--prior", "local")
     assert r.returncode == 0, r.stderr
     for words in ("airspace: figure-8", "abort box: |north| <= 1.6 m, height 0.2-1.8 m (at the stopping point",
-                  "flights: 21 trials (1 baseline + 8 prior + "
-                  "11 optimiser + 1 confirmation)", "0.8 s approach to a moving start (up to 1 m/s)",
+                  "flights: 23 at most (1 baseline + 8 prior + 11 optimiser + up to 2 baseline re-flights + 1 "
+                  "confirmation)", "(+ prior 'local': 8 flown trials)",
+                  "0.8 s approach to a moving start (up to 1 m/s)",
                   "approaches to the moving starts fly within 0.55 m of the figure-8 start", "batteries:",
                   "nothing was written"):
         assert words in r.stdout, r.stdout

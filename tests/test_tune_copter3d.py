@@ -28,13 +28,17 @@ def test_short_campaign_per_personality(tmp_path, capsys, personality):
         before = fresh_read(sim, NAMES[personality], None)
         rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--budget", "6", "--n-prior", "4",
                    "--end", "hold", "--json"])
-        assert rc == 0, capsys.readouterr().err
-        summary = json.loads(capsys.readouterr().out)
+        out = capsys.readouterr()
+        assert rc == 0, out.err
+        summary = json.loads(out.out)
+        # The copter's prior is simulated on the ground, before the first flight.
+        assert out.err.index("prior: 4 JSBSim copter episodes") < out.err.index("trial: baseline gains")
         snap = json.loads((d / "snapshot" / "vehicle.json").read_text())
         assert snap["generation"] == {"ardupilot": "new", "ardupilot-legacy": "legacy", "px4": ""}[personality]
         assert list(summary["baseline"]["values"]) == NAMES[personality]
         result = [json.loads(line) for line in (d / "journal.jsonl").read_text().splitlines()]
-        base_rms = json.loads(open(result[4]["record"]).read())["score"]["rms_lap2_m"]  # first opt trial
+        assert not any(e["kind"] == "prior" for e in result)  # the copter's prior is simulated, nothing flown
+        base_rms = json.loads(open(result[0]["record"]).read())["score"]["rms_lap2_m"]  # the baseline flight
         tuned = json.loads(open(result[-1]["record"]).read())["score"]["rms_lap2_m"]  # confirmation flight
         assert tuned < base_rms  # the tracking error fell
         assert fresh_read(sim, NAMES[personality], None) == pytest.approx(before, rel=1e-6)

@@ -38,6 +38,15 @@ def _judge(v: Vehicle, seconds: float) -> tuple[LinkFigures, str | None]:
 
 
 def check_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, reduce: bool = True) -> LinkFigures:
+    """:func:`judge_link`, then the command waits and attempts sized to the round trip and loss it measured."""
+    fig = judge_link(v, log, seconds, reduce)
+    sized = v.cmd.size_for_link(fig.rtt_ms, fig.loss)
+    if sized:
+        log(sized)
+    return fig
+
+
+def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, reduce: bool = True) -> LinkFigures:
     """Request the mission's streams, measure the link for ``seconds``, say what it delivers. When a trial could
     not be flown over it at the mission's rate and ``reduce``, step the rate (setpoints and telemetry) down through
     :data:`REDUCED_RATES_HZ` to the first the link carries with at most :data:`MAX_LOSS_REDUCED` of the frames lost,

@@ -34,9 +34,9 @@ def campaign_plan(v: Vehicle, cfg: CampaignConfig, d: CampaignDir, base: dict[st
         f"vehicle: sysid {v.identity.sysid}, {v.stack.name} {v.identity.firmware}"
         + (f", {v.gain_map.generation} parameter names" if v.gain_map.generation else ""),
         f"profile: {v.profile.name}; method {cfg.method}, {cfg.budget} trials "
-        f"(+ prior '{kind}'), seed {cfg.seed}" + options_note(cfg, v.profile),
+        f"(+ prior '{kind}'{prior_note(kind, prior_size(cfg, kind))}), seed {cfg.seed}" + options_note(cfg, v.profile),
         "gains (profile name, vehicle name, current value, optimiser range):", *rows,
-        flight_plan(v.profile, n_prior, cfg.budget, cfg.confirm, cfg.settle_s),
+        flight_plan(v.profile, n_prior, cfg.budget, cfg.confirm, cfg.settle_s, cfg.baseline_every),
         f"at the end: {'write the best gains (accept)' if cfg.accept else 'restore the baseline'}, "
         f"then {cfg.end}",
         f"logs: {d.trials}, snapshot {d.snapshot_stem.parent}"])
@@ -50,7 +50,22 @@ def options_note(cfg: CampaignConfig, profile: Any) -> str:
     return f"; options {', '.join(parts)}" if parts else ""
 
 
-def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settle_s: float) -> str:
+def prior_note(kind: str, n: int) -> str:
+    """What the prior costs: flown trials, simulator episodes computed before takeoff, or nothing."""
+    return {"local": f": {n} flown trials", "sim": f": {n} simulator episodes in process, nothing flown"}.get(kind, "")
+
+
+def planned_flights(n_prior: int, budget: int, confirm: int, baseline_every: int) -> tuple[int, int]:
+    """(every flight of a campaign, of which baseline re-flights) at most: the baseline, the flown prior, the
+    optimiser's trials, a re-flight of the baseline after every ``baseline_every`` of those (the cadence stretches
+    while the re-flights stay quiet, so this is the most), the confirmation."""
+    trials = n_prior + max(0, budget - 1)
+    reflights = trials // baseline_every if baseline_every else 0
+    return 1 + trials + reflights + confirm, reflights
+
+
+def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settle_s: float,
+                baseline_every: int = 0) -> str:
     """Multi-line plan: airspace, abort box, flights x duration, total and batteries."""
     m, s = profile.mission_spec, profile.safety
     if m.type == "figure8-ne":
@@ -67,7 +82,7 @@ def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settl
     stop = "" if s.brake_accel_mps2 is None else f" (at the stopping point, braking {s.brake_accel_mps2:g} m/s^2)"
     approach = approach_seconds(m.start_speed_mps)  # a moving start's approach, at most
     trial_s = m.laps * m.period_s + 2 * settle_s + approach + OVERHEAD_S  # settle before, monitored hold after
-    flights = 1 + n_prior + max(0, budget - 1) + confirm
+    flights, reflights = planned_flights(n_prior, budget, confirm, baseline_every)
     total_min = flights * trial_s / 60.0
     packs = math.ceil(total_min / (0.8 * PACK_MIN))
     return "\n".join([
@@ -75,8 +90,9 @@ def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settl
         f"abort box: |north| <= {s.x_max_m:g} m, {east_box}height {s.z_min_m:g}-{s.z_max_m:g} m{stop}, tilt "
         f"<= {s.tilt_max_deg:g} deg, tracking error <= {s.tracking_error_max_m:g} m, heartbeat gap <= "
         f"{s.heartbeat_timeout_s:g} s",
-        f"flights: {flights} trials (1 baseline + {n_prior} prior + {max(0, budget - 1)} optimiser + {confirm} "
-        f"confirmation) x ~{trial_s:.0f} s ({m.laps} x {m.period_s:g} s figure-8 + 2 x settle"
+        f"flights: {flights} at most (1 baseline + {n_prior} prior + {max(0, budget - 1)} optimiser + up to "
+        f"{reflights} baseline re-flights + {confirm} confirmation) x ~{trial_s:.0f} s ({m.laps} x "
+        f"{m.period_s:g} s figure-8 + 2 x settle"
         + (f" + {approach:.1f} s approach to a moving start (up to {m.start_speed_mps:g} m/s)" if approach else "")
         + f" + ~{OVERHEAD_S:g} s) "
         f"= ~{total_min:.0f} min in the air, plus takeoff and landing",

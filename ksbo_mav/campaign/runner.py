@@ -131,14 +131,20 @@ class Campaign:
             trials.drift.restore(journal)
             trials.conditions = ConditionWatch(v)
             started = time.time()
+            kind = prior_kind(cfg, v.profile)
+            prior = None
+            if kind == "sim" and not cfg.warm_start:  # simulated before takeoff: no hover spent waiting for it
+                with threadpool_limits(1):
+                    prior = campaign_prior(kind, cfg, self.dir, v.profile, x0, bounds, [], _flies_nothing, log)
             baseline_trial = trials.fly_baseline(x0)
             with threadpool_limits(1):
                 if cfg.warm_start:
                     prior, result, unused, bounds = warm_search(trials, cfg, v, x0, log)
                 else:
-                    prior = campaign_prior(prior_kind(cfg, v.profile), cfg, self.dir, v.profile, x0, bounds,
-                                           [e.P for e in journal.of("prior")], lambda x: trials.fly(x, "prior").P,
-                                           log)
+                    if kind != "sim":
+                        prior = campaign_prior(kind, cfg, self.dir, v.profile, x0, bounds,
+                                               [e.P for e in journal.of("prior")], lambda x: trials.fly(x, "prior").P,
+                                               log)
                     result, unused = search(trials, cfg, x0, bounds, prior, self.resume, log)
                 if cfg.widen or v.profile.trust_region.widen:
                     result, unused, bounds = widen_search(trials, cfg, v, self.dir, bounds, prior, result, unused, log)
@@ -173,3 +179,7 @@ class Campaign:
             raise
         finally:
             v.close()
+
+
+def _flies_nothing(_x: np.ndarray) -> float:
+    raise AssertionError("a simulator prior flies no trial")

@@ -35,12 +35,16 @@ def add_parser(subparsers) -> None:
                                     "--option max_aborts=N; on the simulated planar task it aborts fewer trials "
                                     "but, in MAVLink campaigns on the built-in vehicle from random moving starts, its "
                                     "recommendations re-fly lower; BENCHMARKS.md), standard, safeopt, ...")
-    p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30); a "
-                   "local prior's flights (8) and the confirmation re-flights come on top: --dry-run prints the total")
+    p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30); the "
+                   "baseline re-flights (--baseline-every), the confirmation and a flown prior's trials come on top: "
+                   "--dry-run prints the total. On the copters 12 flights (--budget 10) gave 90 %% of a 40-flight "
+                   "campaign's cut in the benchmarks (BENCHMARKS.md)")
     p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
     p.add_argument("--prior", choices=("auto", "sim", "local", "none"),
-                   help="kernel-selection prior: simulator episodes (sim, default for the built-in vehicle), a local "
-                        "LHS around the baseline flown on the vehicle (local, default otherwise), or none")
+                   help="prior data for kernel selection and the model: simulator episodes in process (sim: the "
+                        "planar simulator, or our JSBSim copter for the ardupilot-copter and px4-copter profiles; "
+                        "the default for those, nothing flown), a local LHS around the baseline flown on the "
+                        "vehicle (local, the default for other profiles), or none")
     p.add_argument("--n-prior", type=int, metavar="N", help="prior size (default 36 sim / 8 local)")
     p.add_argument("--option", action="append", metavar="KEY=VALUE",
                    help="optimiser option (repeatable; VALUE is JSON), e.g. --option max_aborts=4. The copter "

@@ -41,7 +41,20 @@ class Commander:
         self.stack: Stack | None = None
         self.texts: deque[tuple[int, str]] = deque(maxlen=20)
         self._chunks: dict[int, list[str]] = {}
+        self.ack_wait_s = 0.0  # the least wait for an acknowledgement: sized to the link (size_for_link)
+        self.extra_attempts = 0
         link.handlers.append(self._on_msg)
+
+    def size_for_link(self, rtt_ms: float | None, loss: float) -> str:
+        """Size the acknowledgement waits and attempts to the link measured before the flights: wait at least three
+        round trips (a radio's queue holds a command behind seconds of telemetry), and try twice more where frames
+        are lost. Returns what changed, for the console ("" when the defaults fit)."""
+        self.ack_wait_s = min(10.0, 3.0 * rtt_ms / 1000.0) if rtt_ms else 0.0
+        self.extra_attempts = 2 if loss > 0.02 else 0
+        if self.ack_wait_s <= 1.0 and not self.extra_attempts:
+            return ""
+        return (f"commands: waiting up to {max(1.0, self.ack_wait_s):.1f} s for each acknowledgement, "
+                f"{3 + self.extra_attempts} attempts (round trip {rtt_ms or 0:.0f} ms, {loss:.0%} of frames lost)")
 
     def _on_msg(self, msg: Any) -> None:
         if msg.get_type() == "STATUSTEXT" and self.link.is_vehicle(msg):
@@ -69,12 +82,13 @@ class Commander:
     def command(self, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> int:
         """Send COMMAND_LONG until acknowledged; returns MAV_RESULT. :class:`VehicleError` if never acknowledged."""
         link = self.link
+        timeout, retries = max(timeout, self.ack_wait_s), retries + self.extra_attempts
         for confirmation in range(retries):
             self.send(cmd, *params, confirmation=confirmation)
             ack = link.wait(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, timeout)
             if ack is not None:
                 return int(ack.result)
-        raise VehicleError(f"no COMMAND_ACK for command {cmd} after {retries} attempts")
+        raise VehicleError(f"no COMMAND_ACK for command {cmd} after {retries} attempts of {timeout:.1f} s each")
 
     def attempt(self, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> tuple[int, str]:
         """Send a command once (with ACK retries); returns (MAV_RESULT, the vehicle's STATUSTEXT reason or "")."""

@@ -205,6 +205,9 @@ class Server:
             self.telemetry.request_data_stream(msg.req_stream_id, msg.req_message_rate, bool(msg.start_stop))
         elif kind == "FILE_TRANSFER_PROTOCOL":
             self.commands.ftp(msg)
+        elif kind == "TIMESYNC" and msg.tc1 == 0:  # a request: answered as ArduPilot and PX4 do (a link's round trip)
+            self.mav.timesync_send(self.now_us * 1000, msg.ts1)
+            self.link.flush()
         self._apply_faults()
 
     def _setpoint(self, msg) -> None:
