@@ -112,12 +112,37 @@ def _stats(down: Pipe, up: Pipe) -> str:
     return json.dumps({"down": d(down), "up": d(up)})
 
 
+class GroundRadio:
+    """The ground radio's own RADIO_STATUS, once a second, as a SiK radio sends it (system 51, component 68):
+    ``txbuf`` is the free share of its buffer toward the vehicle, which a ground station uses for flow control."""
+
+    def __init__(self) -> None:
+        from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+        self.mav = mavlink.MAVLink(None, srcSystem=51, srcComponent=68)
+        self.next_at = 0.0
+
+    def due(self, up: Pipe, now: float) -> bytes | None:
+        if now < self.next_at:
+            return None
+        self.next_at = now + 1.0
+        msg = self.mav.radio_status_encode(rssi=180, remrssi=175, txbuf=up.free_percent(now), noise=40,
+                                           remnoise=42, rxerrors=0, fixed=0)
+        frame = bytes(msg.pack(self.mav))
+        self.mav.seq = (self.mav.seq + 1) % 256  # a radio numbers its own frames, as any MAVLink sender
+        return frame
+
+
 def run(vehicle: Side, ground: Side, shape: LinkShape, stop: list[bool]) -> tuple[Pipe, Pipe]:
     """Forward frames between the sides through the shaped pipes until ``stop[0]``."""
     down, up = pipes(shape)
     socks = {vehicle.sock: (vehicle, down), ground.sock: (ground, up)}
+    radio = GroundRadio() if shape.radio else None
     while not stop[0]:
         now = time.monotonic()
+        status = radio.due(up, now) if radio else None
+        if status:
+            ground.send(status)  # from the ground radio itself: no air between it and the ground station
         nxt = [t for t in (down.next_due(), up.next_due()) if t is not None]
         wait = max(0.0, min(nxt) - now) if nxt else 0.05
         readable, _, _ = select.select(list(socks), [], [], min(wait, 0.05))

@@ -9,8 +9,9 @@ Spec (``ksbo-mav sim --link SPEC``, ``python -m ksbo_sim.linkemu --shape SPEC``)
 ``down`` / ``up`` bytes per second (vehicle → ground / ground → vehicle; 0 = unlimited), ``queue`` bytes of buffer
 per direction, ``latency`` and ``jitter`` seconds, ``loss`` probability of a frame being lost, ``burst`` mean
 length of a loss burst in frames (1 = independent losses), ``duplex`` ``full`` or ``half`` (half: both directions
-share one air time of ``max(down, up)`` bytes per second), ``seed``. Example: ``down=4000,up=2000,queue=1024,
-loss=0.05,latency=0.03``.
+share one air time of ``max(down, up)`` bytes per second), ``seed``, ``radio`` (1: the ground radio reports
+RADIO_STATUS once a second as a SiK radio does, ``txbuf`` the free share of its uplink buffer). Example:
+``down=4000,up=2000,queue=1024,loss=0.05,latency=0.03``.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ class LinkShape:
     burst: float = 1.0
     duplex: str = "full"
     seed: int = 0
+    radio: int = 0
 
     @classmethod
     def parse(cls, spec: str) -> "LinkShape":
@@ -60,6 +62,8 @@ class LinkShape:
             raise SimInputError("link spec: rates, latency and jitter must be >= 0 and queue >= 64 bytes")
         if not 0.0 <= self.loss < 1.0 or self.burst < 1.0:
             raise SimInputError("link spec: loss must be in [0, 1) and burst >= 1")
+        if self.radio not in (0, 1):
+            raise SimInputError(f"link spec: radio must be 0 or 1, got {self.radio}")
         if self.duplex not in ("full", "half"):
             raise SimInputError(f"link spec: duplex must be full or half, got {self.duplex!r}")
 
@@ -68,7 +72,8 @@ class LinkShape:
             return "unlimited" if r <= 0 else f"{r / 1000:g} kB/s"
         return (f"down {rate(self.down)}, up {rate(self.up)}, {self.duplex} duplex, queue {self.queue} B, "
                 f"latency {self.latency * 1000:g}±{self.jitter * 1000:g} ms, loss {self.loss:.0%}"
-                + (f" in bursts of {self.burst:g}" if self.burst > 1 else ""))
+                + (f" in bursts of {self.burst:g}" if self.burst > 1 else "")
+                + (", the ground radio reports RADIO_STATUS" if self.radio else ""))
 
 
 @dataclass
@@ -145,6 +150,10 @@ class Pipe:
 
     def next_due(self) -> float | None:
         return self._out[0][0] if self._out else None
+
+    def free_percent(self, now: float) -> int:
+        """The free share of the buffer at ``now`` (100 for an unlimited pipe): a SiK radio's ``txbuf``."""
+        return 100 if self.rate <= 0 else max(0, min(100, int(100 * (1 - self.backlog(now) / self.queue))))
 
 
 def pipes(shape: LinkShape) -> tuple[Pipe, Pipe]:

@@ -45,3 +45,41 @@ def test_command_waits_follow_the_measured_round_trip() -> None:
     finally:
         sim.stop()
         emu.stop()
+
+
+def _stream_through(shape: str, seconds: float = 5.0) -> tuple[dict, int, list[int | None]]:
+    """Setpoints of the mission at 50 Hz for ``seconds`` through the emulator: (its counters, the setpoints the
+    stream left out, the txbuf values the tuner saw)."""
+    gport, vport = free_udp_port(), free_udp_port()
+    emu = LinkEmulator(f"udpin:127.0.0.1:{vport}", f"udp:127.0.0.1:{gport}", shape)
+    sim = SimProcess(out_port=vport)
+    seen: list[int | None] = []
+    try:
+        v = Vehicle.connect(Endpoint("udp", "127.0.0.1", gport), "sim-planar")
+        try:
+            v.setup_streams()
+            m = v.mission
+            v.guided.follow(m.setpoint, int(seconds * 1000 / m.dt_ms), m.dt_ms,
+                            lambda _s: seen.append(v.guided.radio.txbuf))
+            thinned = v.guided.radio.thinned
+        finally:
+            v.close()
+    finally:
+        sim.stop()
+        stats = emu.stop()
+    return stats, thinned, seen
+
+
+@pytest.mark.network
+@pytest.mark.timeout(180)
+def test_setpoints_thin_out_when_the_ground_radio_reports_its_buffer_filling() -> None:
+    """A 1.5 kB/s uplink with a 1 KB buffer cannot carry 50 Hz setpoints (~3.2 kB/s). Without a radio report every
+    setpoint is offered and the buffer drops what overflows; with the ground radio's RADIO_STATUS (as a SiK radio
+    sends it) the stream sends every second or fourth setpoint while the buffer is filling, and far fewer are
+    dropped."""
+    thin = "down=20000,up=1500,queue=1024"
+    blind, none_left_out, _ = _stream_through(thin)
+    told, left_out, seen = _stream_through(thin + ",radio=1")
+    assert none_left_out == 0 and blind["up"]["dropped"] > 50, blind
+    assert left_out > 50 and min(x for x in seen if x is not None) < 50, (left_out, seen[-5:])
+    assert told["up"]["dropped"] < blind["up"]["dropped"] / 3, (told, blind)

@@ -27,6 +27,7 @@ from ksbo_mav.errors import ClockStalled, LinkLost, PreflightError, VehicleError
 from ksbo_mav.mav.commands import CMD_ARM, CMD_TAKEOFF, Commander, refusal
 from ksbo_mav.mav.link import Link
 from ksbo_mav.mav.mission import FRAME_LOCAL_NED, MASK_POS, MASK_POS_VEL_ACC
+from ksbo_mav.mav.radio import RadioWatch
 from ksbo_mav.mav.stacks import Stack
 from ksbo_mav.mav.telemetry import Telemetry
 
@@ -50,6 +51,7 @@ class Guided:
         self.heartbeat_timeout, self.lockstep = heartbeat_timeout, lockstep
         self._hold: np.ndarray | None = None
         self._last_keep = 0.0
+        self.radio = RadioWatch(link)
         if lockstep:
             tel.clock.max_extrapolation_ms = 0.0  # lockstep time is frozen between steps
         link.idle.append(self._keepalive)
@@ -164,11 +166,15 @@ class Guided:
         fresh: list[Any] = []
         self.tel.on_sample.append(fresh.append)
         self.hold_at(None)
-        j, last_send = 0, time.monotonic()
+        j, last_send, thinned0 = 0, time.monotonic(), self.radio.thinned
         try:
             while True:
                 due = min(n, int((clock.now_ms() - t0) // dt_ms))
                 while j <= due:
+                    if 0 < j < n and j % self._stride():  # the radio's buffer is filling: thin the stream out
+                        self.radio.thinned += 1
+                        j += 1
+                        continue
                     pos, vel, acc = setpoint(j)
                     self.send(pos, vel, acc, t_ms=t0 + j * dt_ms)
                     if lag_ms is not None:
@@ -192,6 +198,14 @@ class Guided:
                 self.tel.keep_rates(log)
         finally:
             self.tel.on_sample.remove(fresh.append)
+            if self.radio.thinned > thinned0:
+                log(f"radio: {self.radio.thinned - thinned0} of {n + 1} setpoints left out while the ground radio's "
+                    "buffer was filling (each setpoint carries feed-forward; the autopilot bridges the gaps)")
+
+    def _stride(self) -> int:
+        """Every how many setpoints one goes out: 1, except when a radio reports its buffer filling (never in
+        lockstep, where each setpoint is a simulator step)."""
+        return 1 if self.lockstep else self.radio.stride()
 
     # --- modes and arming --------------------------------------------------------------------------------------
     def enter(self, mode: str) -> None:

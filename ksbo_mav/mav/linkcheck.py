@@ -59,9 +59,12 @@ def measure(link: Link, seconds: float = 3.0) -> LinkFigures:
     radio: list[Any] = []
 
     def on_msg(msg: Any) -> None:
+        kind = msg.get_type()
+        if kind == "RADIO_STATUS":  # from the radio itself (a SiK radio is system 51), not from the vehicle
+            radio.append(msg)
+            return
         if not link.is_vehicle(msg):
             return
-        kind = msg.get_type()
         counts[kind] += 1
         size[0] += len(msg.get_msgbuf())
         src = (msg.get_srcSystem(), msg.get_srcComponent())
@@ -72,8 +75,6 @@ def measure(link: Link, seconds: float = 3.0) -> LinkFigures:
         frames[0] += 1
         if kind == "TIMESYNC" and msg.tc1 != 0 and int(msg.ts1) in sent_ts:
             rtts.append((time.monotonic() - sent_ts.pop(int(msg.ts1))) * 1000.0)
-        elif kind == "RADIO_STATUS":
-            radio.append(msg)
 
     link.handlers.append(on_msg)
     t0 = time.monotonic()
