@@ -80,8 +80,6 @@ def from_output(title: str, rel: str, tables: int = 1, extra: str = "") -> str:
 #: The benchmarks whose output is Markdown: (section title, output under benchmarks/, headline tables, extra text).
 MARKDOWN_OUTPUTS = {
     "mavlink_campaign": ("MAVLink tuning campaign on the built-in vehicle", "mavlink-campaign/results.md", 1, ""),
-    "sitl_campaign": ("Real autopilots from the ground (the paper's optimiser)", "sitl-campaign/results.md", 1,
-                      "Reading: [benchmarks/notes/real-autopilots.md](benchmarks/notes/real-autopilots.md)."),
     "safe_bo_campaign": ("Safe BO campaign: the paper's comparison", "campaign/summary.md", 2,
                          "![paper setting](docs/figures/campaign_paper.png)\n\nReading: "
                          "[benchmarks/notes/safe-bo-campaign.md](benchmarks/notes/safe-bo-campaign.md)."),
@@ -94,7 +92,7 @@ MARKDOWN_OUTPUTS = {
     "link_rates": ("The same gains at 50, 20 and 10 Hz", "link-rates/results.md", 1,
                    "Reading: [docs/links.md](docs/links.md)."),
     "short_campaign": ("A tune in one battery: flights to 90 %, copter figures re-flown", "short-campaign/results.md",
-                       2, "Reading: [docs/optimizer.md](docs/optimizer.md), its section on the simulator prior."),
+                       1, "Reading: [docs/optimizer.md](docs/optimizer.md), its section on the simulator prior."),
     "warm_start": ("Warm start from a finished campaign", "warm-start/results.md", 1, ""),
     "drift": ("A vehicle that changes: drift, wind, the re-flights' cost", "drift/results.md", 1,
               "Reading: [docs/optimizer.md](docs/optimizer.md), its section on a vehicle that changes."),

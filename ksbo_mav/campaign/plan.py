@@ -91,8 +91,8 @@ def flight_plan(profile: Profile, n_prior: int, budget: int, confirm: int, settl
         f"<= {s.tilt_max_deg:g} deg, tracking error <= {s.tracking_error_max_m:g} m, heartbeat gap <= "
         f"{s.heartbeat_timeout_s:g} s",
         f"flights: {flights} at most (1 baseline + {n_prior} prior + {max(0, budget - 1)} optimiser + up to "
-        f"{reflights} baseline re-flights + {confirm} confirmation) x ~{trial_s:.0f} s ({m.laps} x "
-        f"{m.period_s:g} s figure-8 + 2 x settle"
+        f"{reflights} baseline re-flight{'' if reflights == 1 else 's'} + {confirm} confirmation) x "
+        f"~{trial_s:.0f} s ({m.laps} x {m.period_s:g} s figure-8 + 2 x settle"
         + (f" + {approach:.1f} s approach to a moving start (up to {m.start_speed_mps:g} m/s)" if approach else "")
         + f" + ~{OVERHEAD_S:g} s) "
         f"= ~{total_min:.0f} min in the air, plus takeoff and landing",
