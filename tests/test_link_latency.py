@@ -83,3 +83,4 @@ def test_setpoints_thin_out_when_the_ground_radio_reports_its_buffer_filling() -
     assert none_left_out == 0 and blind["up"]["dropped"] > 50, blind
     assert left_out > 50 and min(x for x in seen if x is not None) < 50, (left_out, seen[-5:])
     assert told["up"]["dropped"] < blind["up"]["dropped"] / 3, (told, blind)
+

@@ -20,6 +20,8 @@ from ksbo_mav.mav.vehicle import Vehicle
 REDUCED_RATES_HZ = (25, 20, 10)
 #: A lower rate is taken only when it also arrives nearly whole: frames still lost at it mean the link is full.
 MAX_LOSS_REDUCED = 0.05
+#: Seconds to wait for the position estimate before the link is measured (GPS lock and EKF origin on the ground).
+POSITION_WAIT_S = 90.0
 
 
 def _judge(v: Vehicle, seconds: float) -> tuple[LinkFigures, str | None]:
@@ -46,12 +48,33 @@ def check_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     return fig
 
 
+def await_position(v: Vehicle, log: Callable[[str], None], timeout_s: float = POSITION_WAIT_S) -> None:
+    """Wait (up to ``timeout_s``) for the vehicle's LOCAL_POSITION_NED: on the ground before GPS an autopilot
+    streams ATTITUDE only, and a link that carries that alone may not carry the position stream beside it; the
+    link is judged once both stream. A lockstep simulator's clock is paused on the ground: nothing to wait for."""
+    if v.lockstep:
+        return
+    try:
+        v.setup_streams()
+    except VehicleError:
+        pass  # as in _judge: what arrives says whether the request took effect
+    def is_position(m: object) -> bool:
+        return m.get_type() == "LOCAL_POSITION_NED" and v.link.is_vehicle(m)  # type: ignore[attr-defined]
+
+    if v.link.wait(is_position, 1.0) is not None:
+        return
+    log(f"link: waiting up to {timeout_s:g} s for the position estimate (LOCAL_POSITION_NED) before measuring")
+    if v.link.wait(is_position, timeout_s) is None:
+        log("link: still no position estimate; the link is judged on ATTITUDE, which the position stream will join")
+
+
 def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, reduce: bool = True) -> LinkFigures:
     """Request the mission's streams, measure the link for ``seconds``, say what it delivers. When a trial could
     not be flown over it at the mission's rate and ``reduce``, step the rate (setpoints and telemetry) down through
     :data:`REDUCED_RATES_HZ` to the first the link carries with at most :data:`MAX_LOSS_REDUCED` of the frames lost,
     and say so; PreflightError (one line naming the measured and needed rates) when none fits."""
     asked = v.mission.rate_hz
+    await_position(v, log)
     fig, why = _judge(v, seconds)
     log(f"link: {fig.describe()}" + (f" (the mission needs {judged_stream(fig)} at {asked} Hz)"
                                      if judged(fig) else ""))
