@@ -40,6 +40,16 @@ def write_result(name: str, body: str) -> Path:
     return path
 
 
+def append_record(path: Path, rec: dict) -> None:
+    """Print ``rec`` as one JSON line and append it to the runs file ``path`` (created with its folder)."""
+    import json
+
+    print(json.dumps(rec), flush=True)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as fh:
+        fh.write(json.dumps(rec) + "\n")
+
+
 @contextmanager
 def sim_and_endpoint(*extra: str):
     """Our simulator in its own process (lockstep) sending to a free UDP port; yields (process, the Endpoint a

@@ -32,7 +32,7 @@ os.environ.setdefault("MAVLINK20", "1")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from _bench_common import machine, refly_in_turn  # noqa: E402
+from _bench_common import append_record, machine, refly_in_turn  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "short-campaign" / "runs.jsonl"
 SPEED = {"ardupilot": 10.0, "px4": 5.0}
@@ -128,7 +128,7 @@ def main() -> None:
     argv = argv[:argv.index("--")] if "--" in argv else argv
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--stack", choices=("ardupilot", "px4", "copter3d"), default="ardupilot")
-    ap.add_argument("--reference", help="the long campaign whose recommendation is 100 %")
+    ap.add_argument("--reference", help="the long campaign whose recommendation is 100 %%")
     ap.add_argument("--label", default="", help="a name for the configuration (the report groups by it)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--wind", type=float, default=0.0, help="SITL: SIM_WIND_SPD (m/s)")
@@ -138,10 +138,7 @@ def main() -> None:
     a.tune = tune
     r = run(a)
     r["label"] = a.label
-    print(json.dumps(r), flush=True)
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    with open(OUT, "a") as fh:
-        fh.write(json.dumps(r) + "\n")
+    append_record(OUT, r)
 
 
 if __name__ == "__main__":

@@ -29,7 +29,7 @@ os.environ.setdefault("MAVLINK20", "1")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from _bench_common import machine, refly_in_turn  # noqa: E402
+from _bench_common import append_record, machine, refly_in_turn  # noqa: E402
 
 from ksbo_mav.mav.link import Endpoint  # noqa: E402
 
@@ -141,10 +141,7 @@ def main() -> None:
     ap.add_argument("--instance", type=int, default=12)
     a = ap.parse_args()
     r = run(a)
-    print(json.dumps(r), flush=True)
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    with open(OUT, "a") as fh:
-        fh.write(json.dumps(r) + "\n")
+    append_record(OUT, r)
 
 
 if __name__ == "__main__":

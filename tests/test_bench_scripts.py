@@ -5,6 +5,7 @@ scripts/diag/ reproduce what the notes say they show."""
 from __future__ import annotations
 
 import importlib.util
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -29,6 +30,7 @@ def _load(name: str):
                                               ("diag/monitor_backup.py", "--n"),
                                               ("diag/gain_slices.py", "--plot"),
                                               ("bench_tune_campaign.py", "--write"),
+                                              ("bench_short_campaign.py", "--reference"),
                                               ("benchmarks_page.py", "--check")])
 def test_bench_scripts_start(script, flag):
     r = subprocess.run([sys.executable, str(SCRIPTS / script), "--help"], capture_output=True, text=True,
@@ -113,3 +115,29 @@ def test_gain_slices_show_the_pitch_d_cliff_of_pitch_inertia_x05():
     ep, fail = slices("iyy x0.5", [8], np.array([0.0, 0.075, 0.25]))[8]
     assert ep[1] > 0.8 and ep[2] < 0.4 and fail[1] == 0 == fail[2]
     assert fail[0] == 8 and ep[0] < 0
+
+
+def test_flights_to_90_takes_the_best_flown_gains_and_the_report_counts_what_was_not_reached(tmp_path):
+    """bench_short_campaign: the best-so-far gains after each flight (the baseline and non-ok flights are not
+    candidates), and the report's median / worst flights-to-90 with a run that never got there."""
+    sys.path.insert(0, str(SCRIPTS))
+    short = _load("bench_short_campaign")
+    entries = [{"kind": "opt", "x": [1, 1], "outcome": "ok", "rms": 0.20},
+               {"kind": "opt", "x": [2, 1], "outcome": "ok", "rms": 0.15},
+               {"kind": "failed", "x": [3, 1], "outcome": "client", "rms": 0.01},
+               {"kind": "baseline", "x": [1, 1], "outcome": "ok", "rms": 0.05},
+               {"kind": "opt", "x": [4, 1], "outcome": "ok", "rms": 0.12}]
+    best = short.best_so_far(entries, ["a", "b"])
+    assert [(k, g["a"], rms) for k, g, rms in best] == [(2, 2, 0.15), (5, 4, 0.12)]
+
+    def run(seed: int, to90: int | None, rec: float) -> dict:
+        return {"stack": "ardupilot", "wind_mps": 0.0, "turb": 0.0, "seed": seed, "tune_args": ["--budget", "10"],
+                "label": "default", "flights": 12, "flights_to_90": to90, "share_of_long": 0.9, "cut": 0.5,
+                "unsafe": 0, "aborted": 0, "interrupted": 1 if to90 is None else 0, "machine": "test",
+                "reflown": {"baseline": [0.2, 0.2, 0.2], "rec": [rec] * 3, "long": [0.1] * 3}}
+
+    runs = tmp_path / "runs.jsonl"
+    runs.write_text("\n".join(json.dumps(r) for r in (run(0, 4, 0.1), run(1, 6, 0.1), run(2, None, 0.15))) + "\n")
+    _load("bench_short_campaign_report").report(runs)
+    row = next(x for x in (tmp_path / "results.md").read_text().splitlines() if x.startswith("| ArduCopter SITL"))
+    assert "| 3 | 12 | 6 / not reached |" in row and "0.100 (0.100–0.150)" in row and "| 0 / 0 / 1 |" in row
