@@ -84,3 +84,28 @@ def test_setpoints_thin_out_when_the_ground_radio_reports_its_buffer_filling() -
     assert left_out > 50 and min(x for x in seen if x is not None) < 50, (left_out, seen[-5:])
     assert told["up"]["dropped"] < blind["up"]["dropped"] / 3, (told, blind)
 
+
+
+@pytest.mark.network
+@pytest.mark.timeout(180)
+def test_an_uplink_too_thin_for_50_hz_setpoints_is_found_by_the_radios_buffer_and_stepped_down() -> None:
+    """The downlink carries everything; the uplink (1.5 kB/s, 1 KB buffer) cannot carry 50 Hz setpoints (~3.3
+    kB/s). The downlink figures cannot show it; the ground radio's RADIO_STATUS can: the link check streams
+    mission-sized setpoints that the autopilot ignores, sees the radio's buffer fill and steps the rate down."""
+    gport, vport = free_udp_port(), free_udp_port()
+    emu = LinkEmulator(f"udpin:127.0.0.1:{vport}", f"udp:127.0.0.1:{gport}", "down=20000,up=1500,queue=1024,radio=1")
+    sim = SimProcess(out_port=vport)
+    said: list[str] = []
+    try:
+        v = Vehicle.connect(Endpoint("udp", "127.0.0.1", gport), "sim-planar")
+        try:
+            fig = check_link(v, said.append, seconds=2.0)
+            rate = v.mission.rate_hz
+        finally:
+            v.close()
+    finally:
+        sim.stop()
+        emu.stop()
+    assert any("fill the ground radio's buffer" in s for s in said), said
+    assert fig.reduced_from_hz == 50 and rate < 50 and rate * 65 < 1500, (rate, said)
+    assert any(s.startswith(f"link: flying at {rate} Hz instead of 50 Hz") for s in said), said

@@ -11,7 +11,8 @@ from collections.abc import Callable
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.errors import PreflightError, VehicleError
 from ksbo_mav.mav.snapshot import fsync_write
-from ksbo_mav.mav.linkcheck import LinkFigures, judged, judged_stream, measure, verdict
+from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, probe_uplink,
+                                    verdict)
 from ksbo_mav.mav.vehicle import Vehicle
 
 
@@ -20,6 +21,8 @@ from ksbo_mav.mav.vehicle import Vehicle
 REDUCED_RATES_HZ = (25, 20, 10)
 #: A lower rate is taken only when it also arrives nearly whole: frames still lost at it mean the link is full.
 MAX_LOSS_REDUCED = 0.05
+#: Bytes of one SET_POSITION_TARGET_LOCAL_NED on the wire (MAVLink 2, 53-byte payload + 12).
+FRAME_BYTES = 65
 #: Seconds to wait for the position estimate before the link is measured (GPS lock and EKF origin on the ground).
 POSITION_WAIT_S = 90.0
 
@@ -36,7 +39,20 @@ def _judge(v: Vehicle, seconds: float) -> tuple[LinkFigures, str | None]:
     if why:  # once more: a burst (the vehicle's parameter download, a ground station joining) may have passed
         fig = measure(v.link, 2 * seconds)
         why = verdict(fig, float(v.mission.rate_hz))
+    if why is None and fig.radio is not None and not v.lockstep:
+        why = _uplink_verdict(v, seconds)
     return fig, why
+
+
+def _uplink_verdict(v: Vehicle, seconds: float) -> str | None:
+    """With a radio that reports its buffer: None when it carries the mission's setpoints, else why not."""
+    rate = v.mission.rate_hz
+    free = probe_uplink(v.link, rate, seconds)
+    if free is None or free >= UPLINK_MIN_FREE:
+        return None
+    return (f"link check: setpoints at {rate} Hz (about {rate * FRAME_BYTES / 1000:.1f} kB/s up) fill the ground "
+            f"radio's buffer (down to {free} % free): use a faster radio air rate, or fly a profile with a lower "
+            "mission rate (docs/links.md); nothing was written to the vehicle")
 
 
 def check_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, reduce: bool = True) -> LinkFigures:
@@ -79,6 +95,7 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     log(f"link: {fig.describe()}" + (f" (the mission needs {judged_stream(fig)} at {asked} Hz)"
                                      if judged(fig) else ""))
     if why and reduce:
+        log(why.split("; nothing was written")[0].split(": use ")[0] + ": trying lower mission rates")
         for rate in (r for r in REDUCED_RATES_HZ if r < asked):
             v.set_mission_rate(rate)
             fig2, why2 = _judge(v, 2 * seconds)  # a longer look: a rate kept must hold, not just pass once

@@ -127,3 +127,34 @@ def verdict(fig: LinkFigures, mission_rate_hz: float) -> str | None:
             f"(about {need / 1000:.1f} kB/s down): use a faster link (a wired companion computer, a faster radio "
             "air rate), close other ground stations on it, or fly a profile with a lower mission rate "
             "(docs/links.md); nothing was written to the vehicle")
+
+
+#: Below this free share of the ground radio's buffer while setpoints stream, the uplink cannot carry the rate.
+UPLINK_MIN_FREE = 50
+#: SET_POSITION_TARGET_LOCAL_NED with every field ignored (a probe the autopilot stores or drops, never flies).
+MASK_IGNORE_ALL = 0x0DFF
+
+
+def probe_uplink(link: Link, rate_hz: float, seconds: float) -> int | None:
+    """Stream setpoints as large as the mission's (every field ignored) at ``rate_hz`` for ``seconds`` and return
+    the least free share of the ground radio's buffer (RADIO_STATUS ``txbuf``) it reported meanwhile, or None when
+    no radio reports. The downlink measurement cannot see the uplink; a radio that reports its buffer can."""
+    seen: list[int] = []
+
+    def on_msg(msg: Any) -> None:
+        if msg.get_type() == "RADIO_STATUS":
+            seen.append(int(msg.txbuf))
+
+    link.handlers.append(on_msg)
+    t0 = next_at = time.monotonic()
+    try:
+        while (now := time.monotonic()) - t0 < seconds:
+            if now >= next_at:
+                link.send(link.mav.set_position_target_local_ned_encode(
+                    int((now - t0) * 1000), link.target_system, link.target_component, 1, MASK_IGNORE_ALL,
+                    1.0, 1.0, -1.0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1))
+                next_at += 1.0 / rate_hz
+            link.pump(0.005)
+    finally:
+        link.handlers.remove(on_msg)
+    return min(seen[1:] or seen) if seen else None
