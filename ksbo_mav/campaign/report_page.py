@@ -188,8 +188,10 @@ def render(rec: CampaignRecord, result: dict[str, Any] | None, hits: Sequence[Ed
                         for k, cap in PLOTS if plots.get(k, "none") != "none" and Path(plots[k]).is_file())
     s = rec.settings
     cfg = s.get("config", {})
+    prior = (f"{s['prior_simulated']} simulated episodes, nothing flown" if s.get("prior_simulated")
+             else cfg.get("prior"))
     about = (f"profile {s.get('profile')}, method {cfg.get('method')}, budget {cfg.get('budget')}, seed "
-             f"{cfg.get('seed')}, prior {cfg.get('prior')}; written {time.strftime('%Y-%m-%d %H:%M:%S')}")
+             f"{cfg.get('seed')}, prior {prior}; written {time.strftime('%Y-%m-%d %H:%M:%S')}")
     return f"""<!DOCTYPE html>
 <html xmlns="http://www.w3.org/1999/xhtml" lang="en">
 <head>

@@ -7,6 +7,8 @@ trial at the baseline's gains is a baseline re-flight, one at an earlier trial's
 
 from __future__ import annotations
 
+import json
+
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -96,6 +98,11 @@ def read_campaign(d: CampaignDir, rms: bool = True) -> CampaignRecord:
     """Settings and trial rows of the campaign in ``d`` (InputError, one line, when it is not one). ``rms``:
     recompute the planar mission's lap RMS from the tlogs (about 0.2 s a trial)."""
     settings = d.read_settings()
+    if d.prior.is_file():  # a simulated prior: what "auto" became, and its size, for the report's header
+        try:
+            settings["prior_simulated"] = len(json.loads(d.prior.read_text()).get("y", []))
+        except (OSError, ValueError):
+            pass
     names = list(settings["baseline"])
     base = np.array([settings["baseline"][n] for n in names], dtype=float)
     x0 = np.asarray(settings["x0"], dtype=float)
