@@ -36,9 +36,9 @@ def add_parser(subparsers) -> None:
                                     "but, in MAVLink campaigns on the built-in vehicle from random moving starts, its "
                                     "recommendations re-fly lower; BENCHMARKS.md), standard, safeopt, ...")
     p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30); the "
-                   "baseline re-flights (--baseline-every), the confirmation and a flown prior's trials come on top: "
-                   "--dry-run prints the total. On the copters 12 flights (--budget 10) gave 90 %% of a 40-flight "
-                   "campaign's cut in the benchmarks (BENCHMARKS.md)")
+                   "baseline re-flights (--baseline-every), the confirmation and a flown prior's trials come on "
+                   "top: --dry-run prints the total. On the copters 12 flights (--budget 10: one pack) gave at "
+                   "least 90 %% of a 40-flight campaign's cut in 10 of 12 benchmark campaigns (BENCHMARKS.md)")
     p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
     p.add_argument("--prior", choices=("auto", "sim", "local", "none"),
                    help="prior data for kernel selection and the model: simulator episodes in process (sim: the "

@@ -33,6 +33,13 @@ class Faults:
     loss_out: float = 0.0  # probability of dropping each sent message
     delay_s: float = 0.0  # added latency of every sent message (wall clock)
     mute_until: float = 0.0  # wall-clock time until which nothing is received or sent
+    hb_mute_until: float = 0.0  # wall-clock time until which no HEARTBEAT is sent (the rest still is)
+
+
+def _is_heartbeat(buf: bytes) -> bool:
+    """A packed HEARTBEAT (message id 0), MAVLink 2 or 1."""
+    return (buf[0] == 0xFD and len(buf) > 9 and buf[7:10] == b"\0\0\0") or (buf[0] == 0xFE and len(buf) > 5
+                                                                            and buf[5] == 0)
 
 
 def _parser() -> mavlink.MAVLink:
@@ -160,7 +167,8 @@ class Link:
         self.sent += 1
         f = self.faults
         now = time.monotonic()
-        if now < f.mute_until or (f.loss_out > 0 and self._rng.random() < f.loss_out):
+        if now < f.mute_until or (f.loss_out > 0 and self._rng.random() < f.loss_out) or \
+                (now < f.hb_mute_until and _is_heartbeat(buf)):
             self.dropped_out += 1
             return
         if f.delay_s > 0:

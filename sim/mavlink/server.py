@@ -40,7 +40,7 @@ from ksbo_sim.vehicle import ParamSpec, VehicleModel
 
 #: Fault switches: volatile (never persisted), so a restarted vehicle never boots faulty.
 FAULT_PARAMS = ("SIM_PKT_LOSS_IN", "SIM_PKT_LOSS_OUT", "SIM_DELAY_MS", "SIM_MUTE_S", "SIM_PILOT_MODE",
-                "SIM_PSET_FAIL", "SIM_FAULT_AFTER", "SIM_CRASH_WRITES")
+                "SIM_PSET_FAIL", "SIM_FAULT_AFTER", "SIM_CRASH_WRITES", "SIM_HB_MUTE_S")
 
 
 def endpoint_specs() -> list[ParamSpec]:
@@ -49,6 +49,8 @@ def endpoint_specs() -> list[ParamSpec]:
         ParamSpec("SIM_PKT_LOSS_OUT", 0.0, 0.0, 1.0, description="fraction of sent messages dropped"),
         ParamSpec("SIM_DELAY_MS", 0.0, 0.0, 10000.0, description="latency added to sent messages [ms wall]"),
         ParamSpec("SIM_MUTE_S", 0.0, 0.0, 3600.0, description="go silent (no rx/tx) this long [s wall], one-shot"),
+        ParamSpec("SIM_HB_MUTE_S", 0.0, 0.0, 3600.0,
+                  description="send no HEARTBEAT (the rest still goes) this long [s wall], one-shot"),
         ParamSpec("SIM_PILOT_MODE", -1, -1, 2**31 - 1, "INT32", "custom_mode a pilot switches to, one-shot; -1 off"),
         ParamSpec("SIM_PSET_FAIL", 0.0, 0.0, 1.0,
                   description="fraction of PARAM_SETs of non-SIM_ parameters refused (old value echoed)"),
@@ -165,6 +167,9 @@ class Server:
         if v["SIM_MUTE_S"] > 0:
             fl.mute_until = time.monotonic() + v["SIM_MUTE_S"]
             self.params.force("SIM_MUTE_S", 0.0)
+        if v["SIM_HB_MUTE_S"] > 0:
+            fl.hb_mute_until = time.monotonic() + v["SIM_HB_MUTE_S"]
+            self.params.force("SIM_HB_MUTE_S", 0.0)
 
     def _notify(self, severity: int, text: str) -> None:
         if hasattr(self, "telemetry"):

@@ -1,6 +1,7 @@
-"""A slow link (a radio's queue, a long Wi-Fi path): the link check measures the round trip and the command
-service sizes its acknowledgement waits to it, so a command whose answer takes two seconds still gets through.
-Our simulator in real time behind the link emulator, over loopback UDP."""
+"""A slow or lossy link (a radio's queue, a long Wi-Fi path): command waits sized to the measured round trip, the
+setpoint stream thinned while the ground radio's buffer fills, the uplink probed through the radio's report, and
+heartbeats lost while telemetry still arrives not taken for a lost link. Our simulator in real time, behind the
+link emulator where a shape is needed, over loopback UDP."""
 
 from __future__ import annotations
 
@@ -8,10 +9,12 @@ import os
 
 os.environ["MAVLINK20"] = "1"
 
+import time  # noqa: E402
+
 import pytest  # noqa: E402
 
 from ksbo_mav.campaign.link_check import check_link  # noqa: E402
-from ksbo_mav.errors import VehicleError  # noqa: E402
+from ksbo_mav.errors import LinkLost, VehicleError  # noqa: E402
 from ksbo_mav.mav.link import Endpoint  # noqa: E402
 from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
 from ksbo_sim.linkproc import LinkEmulator  # noqa: E402
@@ -109,3 +112,31 @@ def test_an_uplink_too_thin_for_50_hz_setpoints_is_found_by_the_radios_buffer_an
     assert any("fill the ground radio's buffer" in s for s in said), said
     assert fig.reduced_from_hz == 50 and rate < 50 and rate * 65 < 1500, (rate, said)
     assert any(s.startswith(f"link: flying at {rate} Hz instead of 50 Hz") for s in said), said
+
+
+@pytest.mark.network
+@pytest.mark.timeout(120)
+def test_heartbeats_lost_while_telemetry_arrives_are_not_a_lost_link() -> None:
+    """Five seconds without a HEARTBEAT (the simulator's SIM_HB_MUTE_S; the other streams go on): the link is not
+    lost. Five seconds of silence (SIM_MUTE_S: nothing at all) still is, after the usual timeout."""
+    port = free_udp_port()
+    with SimProcess(out_port=port):
+        v = Vehicle.connect(Endpoint("udp", "127.0.0.1", port), "sim-planar")
+        try:
+            v.setup_streams()
+            v.params.set_verified("SIM_HB_MUTE_S", 5.0)
+            longest, t0 = 0.0, time.monotonic()
+            while time.monotonic() - t0 < 6.5:
+                v.link.pump(0.05)
+                longest = max(longest, v.link.heartbeat_age())
+                v.guided.check_link()  # never raises: the telemetry keeps coming
+            assert longest > 1.2 * v.heartbeat_timeout and v.link.heartbeat_age() < 2.0, longest
+            v.params.set_verified("SIM_MUTE_S", 5.0)
+            t0 = time.monotonic()
+            with pytest.raises(LinkLost, match="no heartbeat from the vehicle"):
+                while time.monotonic() - t0 < 6.0:
+                    v.link.pump(0.05)
+                    v.guided.check_link()
+            assert time.monotonic() - t0 < 1.5 * v.heartbeat_timeout + 1.0
+        finally:
+            v.close()
