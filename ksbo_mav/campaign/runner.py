@@ -132,6 +132,8 @@ class Campaign:
             trials.conditions = ConditionWatch(v)
             started = time.time()
             kind = prior_kind(cfg, v.profile)
+            if cfg.prior == "auto" and journal.of("prior"):
+                kind = "local"  # resumed from when "auto" meant a flown prior for this profile: it keeps it
             prior = None
             if kind == "sim" and not cfg.warm_start:  # simulated before takeoff: no hover spent waiting for it
                 with threadpool_limits(1):
