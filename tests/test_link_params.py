@@ -22,6 +22,7 @@ from ksbo_sim.linkemu import split_frames  # noqa: E402
 from ksbo_sim.linkproc import LinkEmulator  # noqa: E402
 from ksbo_sim.linkshape import LinkShape, pipes  # noqa: E402
 from ksbo_sim.process import SimProcess, free_udp_port  # noqa: E402
+from link_helpers import check_link_through, realtime_through  # noqa: E402
 
 pytestmark = pytest.mark.timeout(120)
 RADIO = "down=4000,up=2000,queue=1024,loss=0.05,latency=0.02,seed=1"
@@ -131,14 +132,6 @@ def test_arducopter_parameters_arrive_through_a_radio_like_link(ardupilot_sitl, 
     assert stats["down"]["lost"] > 0
 
 
-def _realtime_through(shape: str):
-    """The simulator in real time (its clock runs on the ground, as a vehicle's does) behind the emulator."""
-    gport, vport = free_udp_port(), free_udp_port()
-    emu = LinkEmulator(f"udpin:127.0.0.1:{vport}", f"udp:127.0.0.1:{gport}", shape)
-    sim = SimProcess(out_port=vport)
-    return sim, emu, Endpoint("udp", "127.0.0.1", gport)
-
-
 @pytest.mark.network
 @pytest.mark.timeout(300)
 def test_a_link_too_thin_for_the_mission_is_refused_before_arming_in_one_line(tmp_path) -> None:
@@ -149,7 +142,7 @@ def test_a_link_too_thin_for_the_mission_is_refused_before_arming_in_one_line(tm
 
     from ksbo_mav.cli import main
 
-    sim, emu, ep = _realtime_through("down=1000,up=1000,queue=1024,loss=0.2,seed=5")
+    sim, emu, ep = realtime_through("down=1000,up=1000,queue=1024,loss=0.2,seed=5")
     try:
         d = tmp_path / "camp"
         import contextlib
@@ -174,20 +167,9 @@ def test_a_link_too_thin_for_the_mission_is_refused_before_arming_in_one_line(tm
 def test_a_link_too_thin_for_50_hz_flies_at_the_highest_rate_it_carries() -> None:
     """2 kB/s down: 50 Hz loses half the frames, so the check steps the mission down (setpoints and telemetry)
     to the first rate that arrives nearly whole, says so, and keeps the profile's rate in the figures."""
-    from ksbo_mav.campaign.link_check import REDUCED_RATES_HZ, check_link
+    from ksbo_mav.campaign.link_check import REDUCED_RATES_HZ
 
-    sim, emu, ep = _realtime_through("down=2000,up=2000,queue=1024,seed=5")
-    try:
-        v = Vehicle.connect(ep, "sim-planar")
-        try:
-            said: list[str] = []
-            fig = check_link(v, said.append, seconds=2.0)
-            rate = v.mission.rate_hz
-        finally:
-            v.close()
-    finally:
-        sim.stop()
-        emu.stop()
+    fig, rate, said = check_link_through("down=2000,up=2000,queue=1024,seed=5")
     assert rate in REDUCED_RATES_HZ and fig.reduced_from_hz == 50, said
     flying = [s for s in said if s.startswith("link: flying at")]
     assert flying[-1].startswith(f"link: flying at {rate} Hz instead of 50 Hz") and fig.loss <= 0.05, said
@@ -199,7 +181,7 @@ def test_a_link_that_carries_the_mission_passes_and_its_figures_are_kept(tmp_pat
     from ksbo_mav.campaign.layout import CampaignDir
     from ksbo_mav.campaign.link_check import check_link, record_link
 
-    sim, emu, ep = _realtime_through("down=20000,up=20000,queue=4096,latency=0.01")
+    sim, emu, ep = realtime_through("down=20000,up=20000,queue=4096,latency=0.01")
     try:
         v = Vehicle.connect(ep, "sim-planar")
         try:
