@@ -122,3 +122,31 @@ def test_heartbeats_lost_while_telemetry_arrives_are_not_a_lost_link() -> None:
             assert time.monotonic() - t0 < 1.5 * v.heartbeat_timeout + 1.0
         finally:
             v.close()
+
+
+@pytest.mark.network
+@pytest.mark.timeout(180)
+def test_the_vehicles_own_streams_are_quieted_before_the_mission_rate_is_lowered() -> None:
+    """A vehicle streaming what the campaign does not use at 50 Hz (here SERVO_OUTPUT_RAW and SYSTEM_TIME, asked
+    for as another ground station or the autopilot's defaults would) over a link that carries the mission's
+    streams alone (about 4.4 kB/s of 6.4): the check asks for those streams once a second and keeps 50 Hz."""
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    from ksbo_mav.campaign.link_check import check_link
+
+    sim, emu, ep = realtime_through("down=5400,up=20000,queue=1024,seed=2")
+    said: list[str] = []
+    try:
+        v = Vehicle.connect(ep, "sim-planar")
+        try:
+            for extra in (mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, mavlink.MAVLINK_MSG_ID_SYSTEM_TIME):
+                v.cmd.set_interval(extra, 20_000)
+            fig = check_link(v, said.append, seconds=2.0)
+            rate = v.mission.rate_hz
+        finally:
+            v.close()
+    finally:
+        sim.stop()
+        emu.stop()
+    assert any("asked the vehicle to send SERVO_OUTPUT_RAW, SYSTEM_TIME once a second" in s for s in said), said
+    assert rate == 50 and fig.reduced_from_hz is None and fig.rates_hz.get("SERVO_OUTPUT_RAW", 0) < 3, said

@@ -12,7 +12,7 @@ from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.errors import PreflightError, VehicleError
 from ksbo_mav.mav.snapshot import fsync_write
 from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, probe_uplink,
-                                    verdict)
+                                    quiet_other_streams, verdict)
 from ksbo_mav.mav.vehicle import Vehicle
 
 
@@ -94,6 +94,13 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     fig, why = _judge(v, seconds)
     log(f"link: {fig.describe()}" + (f" (the mission needs {judged_stream(fig)} at {asked} Hz)"
                                      if judged(fig) else ""))
+    full = why or fig.loss > MAX_LOSS_REDUCED
+    quieted = quiet_other_streams(v.cmd, fig) if full else []
+    if quieted:  # the vehicle's own streams fill the link: make room (before lowering the mission's rate)
+        log(f"link: asked the vehicle to send {', '.join(quieted)} once a second on this link (not used by the "
+            "campaign; a reboot restores them)")
+        fig, why = _judge(v, 2 * seconds)
+        log(f"link: {fig.describe()}")
     if why and reduce:
         log(why.split("; nothing was written")[0].split(": use ")[0] + ": trying lower mission rates")
         for rate in (r for r in REDUCED_RATES_HZ if r < asked):

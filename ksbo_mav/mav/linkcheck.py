@@ -158,3 +158,29 @@ def probe_uplink(link: Link, rate_hz: float, seconds: float) -> int | None:
     finally:
         link.handlers.remove(on_msg)
     return min(seen[1:] or seen) if seen else None
+
+
+#: What a campaign listens to (the mission's streams, the pack and wind, the services' answers): never quieted.
+NEEDED = frozenset({"LOCAL_POSITION_NED", "ATTITUDE", "ACTUATOR_OUTPUT_STATUS", "HEARTBEAT", "SYS_STATUS",
+                    "BATTERY_STATUS", "WIND", "WIND_COV", "STATUSTEXT", "COMMAND_ACK", "PARAM_VALUE", "TIMESYNC",
+                    "RADIO_STATUS", "FILE_TRANSFER_PROTOCOL", "AUTOPILOT_VERSION", "EXTENDED_SYS_STATE"})
+
+
+def quiet_other_streams(cmd: Any, fig: LinkFigures, above_hz: float = 1.5) -> list[str]:
+    """Ask the vehicle to send each stream the campaign does not use, and that arrived faster than ``above_hz``,
+    once a second (SET_MESSAGE_INTERVAL on this link only; a reboot restores the vehicle's own rates, and a ground
+    station sharing the link still gets them, slowly). Returns the names asked. PX4's default streams alone fill a
+    4 kB/s radio."""
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    asked = []
+    for name, hz in sorted(fig.rates_hz.items()):
+        msg_id = getattr(mavlink, f"MAVLINK_MSG_ID_{name}", None)
+        if name in NEEDED or hz <= above_hz or msg_id is None:
+            continue
+        try:
+            cmd.set_interval(msg_id, 1e6)
+        except Exception:  # noqa: BLE001 - unanswered on a full link: the next measurement tells whether it took
+            pass
+        asked.append(name)
+    return asked
