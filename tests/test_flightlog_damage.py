@@ -190,3 +190,19 @@ def test_a_relay_s_tlog_is_scored_against_the_relayed_setpoints(tmp_path, capsys
     assert doc["target_source"].startswith("SET_POSITION_TARGET_LOCAL_NED")
     assert any("POSITION_TARGET_GLOBAL_INT covers only" in w for w in doc["warnings"])
     assert abs(_lap2(doc) - _lap2(ref)) < 1e-3
+
+
+def test_damage_whose_time_before_was_overwritten_counts_inside_every_segment() -> None:
+    """The record the damage cut in two can carry a timestamp of 0xFF bytes (here 2^64 us, as in a PX4 SITL log
+    with 4 kB overwritten): a span 'from 18446744073709.6 s to 57.9 s' cannot be placed, so a segment it may
+    touch is refused rather than scored as whole."""
+    from pathlib import Path
+
+    from ksbo_mav.flightlog.analysis import damage_in
+    from ksbo_mav.flightlog.model import FlightLog, Segment, Skipped
+
+    log = FlightLog(Path("x.ulg"), "ulg", "px4", None, None, None, [])  # type: ignore[arg-type]
+    log.skipped = [Skipped(13672940, 4097, t_before=18446744073709.6, t_after=57.9, why="record type 0xff")]
+    assert damage_in(log, Segment(1, 38.3, 86.3, "OFFBOARD", False))
+    log.skipped = [Skipped(100, 10, t_before=10.0, t_after=12.0)]
+    assert not damage_in(log, Segment(1, 38.3, 86.3, "OFFBOARD", False))  # a placed span before it: not inside

@@ -41,6 +41,8 @@ def damage_in(log: FlightLog, seg: Segment) -> list[str]:
     for sk in log.skipped:
         a = -math.inf if sk.t_before is None else sk.t_before
         b = math.inf if sk.t_after is None else sk.t_after
+        if a > b:  # a timestamp the damage itself overwrote (the record cut by it): the span cannot be placed
+            a, b = -math.inf, math.inf
         if a <= seg.t_end and b >= seg.t_start:
             out.append(sk.describe())
     return out
