@@ -8,7 +8,6 @@ trial at the baseline's gains is a baseline re-flight, one at an earlier trial's
 from __future__ import annotations
 
 import json
-
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any

@@ -13,6 +13,8 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from ksbo_mav.errors import VehicleError
+from ksbo_mav.mav.commands import Commander
 from ksbo_mav.mav.link import Link
 
 #: Below this share of the mission rate the trial cannot be flown (the tuner falls behind the vehicle).
@@ -166,7 +168,7 @@ NEEDED = frozenset({"LOCAL_POSITION_NED", "ATTITUDE", "ACTUATOR_OUTPUT_STATUS", 
                     "RADIO_STATUS", "FILE_TRANSFER_PROTOCOL", "AUTOPILOT_VERSION", "EXTENDED_SYS_STATE"})
 
 
-def quiet_other_streams(cmd: Any, fig: LinkFigures, above_hz: float = 1.5) -> list[str]:
+def quiet_other_streams(cmd: Commander, fig: LinkFigures, above_hz: float = 1.5) -> list[str]:
     """Ask the vehicle to send each stream the campaign does not use, and that arrived faster than ``above_hz``,
     once a second (SET_MESSAGE_INTERVAL on this link only; a reboot restores the vehicle's own rates, and a ground
     station sharing the link still gets them, slowly). Returns the names asked. PX4's default streams alone fill a
@@ -180,7 +182,7 @@ def quiet_other_streams(cmd: Any, fig: LinkFigures, above_hz: float = 1.5) -> li
             continue
         try:
             cmd.set_interval(msg_id, 1e6)
-        except Exception:  # noqa: BLE001 - unanswered on a full link: the next measurement tells whether it took
+        except VehicleError:  # unanswered on a full link: the next measurement tells whether it took
             pass
         asked.append(name)
     return asked
