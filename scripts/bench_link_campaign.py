@@ -42,7 +42,8 @@ def run_one(kind: str, budget: int, shape: str, instance: int, rate: int | None 
             sitl.set_param("COM_RCL_EXCEPT", 4, int32=True)  # no RC in SITL: allow OFFBOARD without it
         _, ep = endpoint(sitl)
         gport = free_udp_port()
-        vehicle = f"tcp:127.0.0.1:{ep.port}" if kind == "ardupilot" else f"udpin:127.0.0.1:{ep.port}"
+        # PX4's API link runs at 4 MB/s and would flood any radio; its 4000 B/s link stands for a radio port
+        vehicle = f"tcp:127.0.0.1:{ep.port}" if kind == "ardupilot" else f"udpin:127.0.0.1:{sitl.radio_udp_port}"
         emu = LinkEmulator(vehicle, f"udp:127.0.0.1:{gport}", shape)
         d = work / "campaign"
         t0 = time.time()
@@ -104,8 +105,10 @@ def main() -> int:
 
 ## `tune --budget {a.budget}` from the ground through a radio-like link
 
-SITLs at real time (1x) from shared/sitl, fresh parameters; our link emulator (`python -m ksbo_sim.linkemu`) between
-the SITL and the tuner with shape `{a.shape}`; `ksbo-mav tune DIR --udp ... --budget {a.budget}` with the defaults.
+SITLs at real time (1x) from shared/sitl, fresh parameters (PX4 through its MAVLink instance rated 4000 B/s, which
+scales its streams as on a radio port; its API link runs at 4 MB/s); our link emulator
+(`python -m ksbo_sim.linkemu`) between the SITL and the tuner with shape `{a.shape}`;
+`ksbo-mav tune DIR --udp ... --budget {a.budget}` with the defaults.
 "params left changed": every parameter read back over a direct connection after the campaign, compared with the
 snapshot (the autopilot's own calibration parameters excluded).
 

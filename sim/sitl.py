@@ -9,7 +9,9 @@ Endpoints as the tuner sees them (``ksbo-mav tune --tcp/--udp ...``):
 * ArduCopter instance N: TCP server ``127.0.0.1:5760+10N`` (SERIAL0; its clock starts when a client connects),
   further TCP ports 5762+10N and 5763+10N.
 * PX4 instance N: PX4 sends to ``127.0.0.1:14540+N`` (API link) and ``14550+N`` (GCS link); a client listens
-  (``--udp 127.0.0.1:14540+N``).
+  (``--udp 127.0.0.1:14540+N``). Both run at PX4's SITL rate of 4 MB/s; its third instance (sends to
+  ``14030+N``, listens on ``14280+N``) is rated 4000 B/s, so PX4 scales its streams to a telemetry radio's budget
+  there, as it does on a radio port set by ``MAV_x_RATE``.
 
 This module uses only the standard library and pymavlink: ksbo_sim never imports ksbo_mav.
 """
@@ -81,6 +83,11 @@ class Sitl:
     def udp_port(self) -> int:
         """PX4: where the API link sends (a client listens here)."""
         return 14540 + self.instance
+
+    @property
+    def radio_udp_port(self) -> int:
+        """PX4: where its 4000 B/s link sends (streams scaled to a radio's budget; a client listens here)."""
+        return 14030 + self.instance
 
     @property
     def gcs_udp_port(self) -> int:
