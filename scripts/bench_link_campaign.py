@@ -55,6 +55,7 @@ def run_one(kind: str, budget: int, shape: str, instance: int, rate: int | None 
             stats = emu.stop()
         wall = time.time() - t0
         log = r.stderr
+        (work / "tune.log").write_text(log)  # the console, for a run that needs explaining
         params = re.search(r"parameters: (\d+) of (\d+) downloaded in ([\d.]+) s \(([^)]*)\)", log)
         lowered = re.search(r"link: flying at (\d+) Hz", log)
         row = {"kind": kind, "rc": r.returncode, "wall_s": wall, "params": params.groups() if params else None,
