@@ -2,6 +2,8 @@ import os
 
 # MAVLink 2 framing for every pymavlink import in the test process (must precede `import pymavlink.mavutil`).
 os.environ.setdefault("MAVLINK20", "1")
+# Parameter sets the tool caches (PX4's _HASH_CHECK) go to a folder of this test session, never the user's home.
+os.environ.setdefault("KSBO_MAV_CACHE_DIR", __import__("tempfile").mkdtemp(prefix="ksbo-param-cache-"))
 
 
 # --- real autopilots (../shared/sitl, or $KSBO_ARDUPILOT_SITL / $KSBO_PX4_SITL) -------------------------------

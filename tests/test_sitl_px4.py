@@ -43,3 +43,34 @@ def test_px4_score_equals_live_and_accept_restore(px4_sitl, campaign):
         assert r.returncode == 0, r.stderr
         assert json.loads(r.stdout)["score"]["P"] == rec["score"]["P"]
     accept_then_restore(px4_sitl, d, summary, PROFILE, ["--udp", f"127.0.0.1:{px4_sitl.udp_port}"])
+
+
+def test_px4_parameters_come_from_the_cache_while_its_hash_is_unchanged(px4_sitl, campaign, monkeypatch, tmp_path):
+    """PX4 hashes its parameter set (_HASH_CHECK): the first connection downloads and keeps the set, the next one
+    takes it from disk after one round trip, and one changed parameter makes it download again."""
+    from ksbo_mav.mav.link import Endpoint
+    from ksbo_mav.mav.vehicle import Vehicle
+
+    monkeypatch.setenv("KSBO_MAV_CACHE_DIR", str(tmp_path))
+    ep = Endpoint("udp", "127.0.0.1", px4_sitl.udp_port)
+
+    def connect() -> tuple[str, dict[str, float]]:
+        v = Vehicle.connect(ep, PROFILE, timeout=30)
+        try:
+            return v.params.last_download.path, {p.name: p.value for p in v.params.table.values()}
+        finally:
+            v.close()
+
+    path1, first = connect()
+    assert path1 == "PARAM protocol" and len(list(tmp_path.glob("px4-*.json"))) == 1
+    path2, second = connect()
+    assert path2.startswith("cache") and second == first
+    old = first["MPC_XY_P"]
+    px4_sitl.set_param("MPC_XY_P", old + 0.05)
+    try:
+        path3, third = connect()
+        assert path3 == "PARAM protocol" and third["MPC_XY_P"] == pytest.approx(old + 0.05)
+        assert {k: v for k, v in third.items() if k != "MPC_XY_P"} == {k: v for k, v in first.items()
+                                                                        if k != "MPC_XY_P"}
+    finally:
+        px4_sitl.set_param("MPC_XY_P", old)

@@ -19,8 +19,9 @@ from ksbo_mav.mav.vehicle import Vehicle
 #: Mission rates (Hz) a campaign may step down to when the link cannot carry the profile's: setpoints carry
 #: velocity and acceleration feed-forward, so the autopilot's controller fills in between them (docs/links.md).
 REDUCED_RATES_HZ = (25, 20, 10)
-#: A lower rate is taken only when it also arrives nearly whole: frames still lost at it mean the link is full.
-MAX_LOSS_REDUCED = 0.05
+#: A lower rate is taken only when it also arrives nearly whole: more frames lost at it mean the link is full. A
+#: radio loses a few per cent on the air at any rate (the tool's writes are verified up to 10 % loss), so up to 10 %.
+MAX_LOSS_REDUCED = 0.10
 #: Bytes of one SET_POSITION_TARGET_LOCAL_NED on the wire (MAVLink 2, 53-byte payload + 12).
 FRAME_BYTES = 65
 #: Seconds to wait for the position estimate before the link is measured (GPS lock and EKF origin on the ground).
@@ -106,6 +107,7 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
         for rate in (r for r in REDUCED_RATES_HZ if r < asked):
             v.set_mission_rate(rate)
             fig2, why2 = _judge(v, 2 * seconds)  # a longer look: a rate kept must hold, not just pass once
+            log(f"link: at {rate} Hz: {fig2.describe()}")
             if why2 is None and fig2.loss <= MAX_LOSS_REDUCED:
                 log(f"link: flying at {rate} Hz instead of {asked} Hz (setpoints with velocity and acceleration "
                     f"feed-forward, telemetry at {rate} Hz): the link carries it ({fig2.describe()})")

@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import math
 import struct
+import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
 
 from ksbo_mav.errors import InputError, VehicleError, VerifyError
+from ksbo_mav.mav import param_cache
 from ksbo_mav.mav.link import Link
 from ksbo_mav.mav.param_list import ParamListing, download_list
 
@@ -84,13 +86,30 @@ class ParamClient:
 
     # --- download -----------------------------------------------------------------------------------------
     def fetch_all(self, stall_s: float = 15.0, progress: Callable[[int, int], None] | None = None,
-                  ftp: bool = False) -> dict[str, Param]:
+                  ftp: bool = False, cache: str | None = None) -> dict[str, Param]:
         """Download every parameter: with ``ftp`` first as one file over MAVLink FTP
         (:mod:`ksbo_mav.mav.param_ftp`), else or when that fails by the PARAM protocol
         (:func:`ksbo_mav.mav.param_list.download_list`: it keeps asking for missing indices while the link
         delivers, and gives up after ``stall_s`` seconds without a new one); :class:`VehicleError` unless every
-        parameter arrived. ``last_download`` says how it went (``path``: "MAVLink FTP" or "PARAM protocol")."""
+        parameter arrived. ``last_download`` says how it went (``path``: "MAVLink FTP", "PARAM protocol" or
+        "cache"). ``cache`` (a stack name): first ask the vehicle for its parameter hash and take the set saved
+        under it (:mod:`ksbo_mav.mav.param_cache`); after a download, save the set under that hash."""
         self.ftp_failure = ""
+        t0 = time.monotonic()
+        h = param_cache.read_hash(self.link) if cache else None
+        if h is not None and (rows := param_cache.load(cache, h)) is not None:
+            self.table = {name: Param(name, value, ptype, i) for i, (name, value, ptype) in enumerate(rows)}
+            self.count = len(self.table)
+            self.last_download = ParamListing(count=self.count, seconds=time.monotonic() - t0,
+                                              path=f"cache, the vehicle's {param_cache.HASH_PARAM} matched")
+            return self.table
+        self._download(stall_s, progress, ftp)
+        if h is not None and param_cache.read_hash(self.link) == h and self.count == h.count:
+            rows = [(p.name, p.value, p.ptype) for p in sorted(self.table.values(), key=lambda p: p.index)]
+            param_cache.save(cache, h, rows)
+        return self.table
+
+    def _download(self, stall_s: float, progress: Callable[[int, int], None] | None, ftp: bool) -> None:
         if ftp:
             from ksbo_mav.mav.param_ftp import download_ftp
 
@@ -101,7 +120,7 @@ class ParamClient:
                 self.count = len(self.table)
                 self.last_download = ParamListing(count=self.count, seconds=got.seconds, path="MAVLink FTP",
                                                   nbytes=got.nbytes)
-                return self.table
+                return
         res = download_list(self.link, stall_s=stall_s, progress=progress)
         self.last_download = res
         if not res.complete:
@@ -114,7 +133,6 @@ class ParamClient:
             m = res.values[i]
             self.table[m.param_id] = Param(m.param_id, decode(m.param_value, m.param_type, self.encoding),
                                            int(m.param_type), i)
-        return self.table
 
     # --- read ------------------------------------------------------------------------------------------------
     def _wait_value(self, name: str, timeout: float) -> Any:

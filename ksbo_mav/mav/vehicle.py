@@ -53,10 +53,12 @@ class Vehicle:
     @classmethod
     def connect(cls, endpoint: Endpoint, profile: str | None = None, *, sysid: int | None = None,
                 compid: int | None = None, timeout: float = 15.0,
-                log: Callable[[str], None] = lambda s: None, param_ftp: bool = True) -> "Vehicle":
+                log: Callable[[str], None] = lambda s: None, param_ftp: bool = True,
+                param_cache: bool = True) -> "Vehicle":
         """Connect as ``sysid``/``compid`` (defaults: :data:`~ksbo_mav.mav.link.DEFAULT_SYSID` ...) and download
         every parameter: over MAVLink FTP when the autopilot advertises it and ``param_ftp``, else (or when that
-        fails) by the PARAM protocol."""
+        fails) by the PARAM protocol; with ``param_cache``, a vehicle that hashes its parameter set (PX4) and
+        still reports the hash of a set kept on disk is not asked for them again (:mod:`ksbo_mav.mav.param_cache`)."""
         kwargs = {k: v for k, v in (("sysid", sysid), ("compid", compid)) if v is not None}
         link = Link(endpoint, **kwargs)
         try:
@@ -75,7 +77,7 @@ class Vehicle:
             params = ParamClient(link, stack.encoding)
             use_ftp = param_ftp and bool(ident.capabilities & CAPABILITY_FTP)
             table = params.fetch_all(progress=lambda got, n: log(f"parameters: {got} of {n or '?'} so far"),
-                                     ftp=use_ftp)
+                                     ftp=use_ftp, cache=stack.name if param_cache and stack.param_hash else None)
             dl = params.last_download
             if params.ftp_failure:
                 log(f"parameters: {params.ftp_failure}; falling back to the PARAM protocol")
