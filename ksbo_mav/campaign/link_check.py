@@ -95,9 +95,12 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     fig, why = _judge(v, seconds)
     log(f"link: {fig.describe()}" + (f" (the mission needs {judged_stream(fig)} at {asked} Hz)"
                                      if judged(fig) else ""))
-    full = why or fig.loss > MAX_LOSS_REDUCED
-    quieted = quiet_other_streams(v.cmd, fig) if full else []
-    if quieted:  # the vehicle's own streams fill the link: make room (before lowering the mission's rate)
+    for _ in range(2):  # twice: streams the first round made room for may arrive faster after it
+        full = why or fig.loss > MAX_LOSS_REDUCED
+        quieted = quiet_other_streams(v.cmd, fig) if full else []
+        if not quieted:
+            break
+        # the vehicle's own streams fill the link: make room (before lowering the mission's rate)
         log(f"link: asked the vehicle to send {', '.join(quieted)} once a second on this link (not used by the "
             "campaign; a reboot restores them)")
         fig, why = _judge(v, 2 * seconds)

@@ -157,9 +157,10 @@ class Guided:
     # --- streaming ---------------------------------------------------------------------------------------------
     def follow(self, setpoint: Callable[[int], tuple[np.ndarray, np.ndarray | None, np.ndarray | None]], n: int,
                dt_ms: int, on_sample: Callable[[Any], None], log: Callable[[str], None] = lambda s: None,
-               resend_s: float = 0.1, lag_ms: list[float] | None = None) -> int:
+               resend_s: float = 0.1, lag_ms: list[float] | None = None, lead_ms: float = 0.0) -> int:
         """Stream setpoints ``setpoint(j)`` for j = 0..n, each sent once when the vehicle clock reaches
-        ``t0 + j*dt_ms`` (t0 = now; stamped with that time), none skipped: if the client falls behind, the due ones
+        ``t0 + j*dt_ms`` (t0 = now; stamped with that time plus ``lead_ms``, the time its content is for), none
+        skipped: if the client falls behind, the due ones
         go out in order. ``on_sample`` sees every new LOCAL_POSITION_NED (it may raise to abort). Returns t0 once a
         sample stamped at or after ``t0 + n*dt_ms`` has arrived. ``lag_ms`` (if given) receives, per step, how
         far the vehicle's newest received stamp already was past the step's time when it went out: a slow client
@@ -185,7 +186,7 @@ class Guided:
                         j += 1
                         continue
                     pos, vel, acc = setpoint(j)
-                    self.send(pos, vel, acc, t_ms=t0 + j * dt_ms)
+                    self.send(pos, vel, acc, t_ms=int(t0 + j * dt_ms + lead_ms))
                     if lag_ms is not None:
                         lag_ms.append(max(0.0, float(clock.last_ms - (t0 + j * dt_ms))))
                     j, last_send = j + 1, time.monotonic()
@@ -197,7 +198,7 @@ class Guided:
                     return t0
                 if self.lockstep and time.monotonic() - last_send > resend_s:
                     pos, vel, acc = setpoint(j - 1)
-                    self.send(pos, vel, acc, t_ms=t0 + (j - 1) * dt_ms)
+                    self.send(pos, vel, acc, t_ms=int(t0 + (j - 1) * dt_ms + lead_ms))
                     last_send = time.monotonic()
                 self.link.pump(0.002)
                 self.check_link()

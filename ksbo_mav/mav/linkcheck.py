@@ -168,11 +168,13 @@ NEEDED = frozenset({"LOCAL_POSITION_NED", "ATTITUDE", "ACTUATOR_OUTPUT_STATUS", 
                     "RADIO_STATUS", "FILE_TRANSFER_PROTOCOL", "AUTOPILOT_VERSION", "EXTENDED_SYS_STATE"})
 
 
-def quiet_other_streams(cmd: Commander, fig: LinkFigures, above_hz: float = 1.5) -> list[str]:
+def quiet_other_streams(cmd: Commander, fig: LinkFigures, above_hz: float = 1.1) -> list[str]:
     """Ask the vehicle to send each stream the campaign does not use, and that arrived faster than ``above_hz``,
     once a second (SET_MESSAGE_INTERVAL on this link only; a reboot restores the vehicle's own rates, and a ground
     station sharing the link still gets them, slowly). Returns the names asked. PX4's default streams alone fill a
-    4 kB/s radio."""
+    4 kB/s radio, and PX4 shares a link's budget among its streams in proportion to the rates asked of them: one
+    arriving at 1.5 Hz may be asked for 10 Hz and take that share from the mission's stream, so anything faster
+    than about once a second is asked down."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
     asked = []

@@ -35,6 +35,9 @@ class Stack:
     px4_mode_params: bool = False  # DO_SET_MODE p2 = main mode, p3 = sub mode (PX4)
     #: guided mode needs a running setpoint stream (PX4 OFFBOARD): stream before entering, park when stopping
     needs_stream: bool = False
+    #: holds a position setpoint as sent until the next one arrives (PX4 OFFBOARD); ArduPilot's guided mode instead
+    #: carries it forward with the velocity and acceleration sent beside it
+    holds_setpoints: bool = False
     #: answers PARAM_REQUEST_READ("_HASH_CHECK") with a hash of its parameter set (PX4): a cached set is reusable
     param_hash: bool = False
 
@@ -57,7 +60,8 @@ KSBO_SIM = Stack("ksbo-sim", MAV_AUTOPILOT_GENERIC, "c_cast", {"guided": 4, "hol
 _PX4_NAMES = {393216: "OFFBOARD", 50593792: "AUTO.LOITER", 196608: "POSCTL", 100925440: "AUTO.LAND",
               33816576: "AUTO.TAKEOFF", 131072: "ALTCTL", 65536: "MANUAL"}
 PX4 = Stack("px4", MAV_AUTOPILOT_PX4, "bytewise", {"guided": 393216, "hold": 50593792, "land": 100925440},
-            _PX4_NAMES, px4_mode_params=True, needs_stream=True, param_hash=True)
+            _PX4_NAMES, px4_mode_params=True, needs_stream=True, holds_setpoints=True,
+            param_hash=True)
 
 
 #: Parameters the autopilot itself writes while it boots and flies (measured on ArduCopter 4.7.0-dev and PX4 1.15.4

@@ -158,11 +158,14 @@ class TrialFlight:
         v.statustext(start_text(m.tag, t0, n, dt, m.window[0]))
         if rms_ref is not None:  # after the start marker: a start forgets everything before it
             v.statustext(ref_text(m.tag, rms_ref))
-        # Step j's setpoint goes out when the vehicle clock reaches t0 + j*dt, stamped with that time; every
-        # sample is checked against the reference at its own stamp, and scored against the logged setpoints.
-        g.follow(lambda j: m.setpoint_at(j * dt / 1000.0), n, dt,
+        # Step j's setpoint goes out when the vehicle clock reaches t0 + j*dt, stamped with the time its content is
+        # for; every sample is checked against the reference at its own stamp, and scored against the logged
+        # setpoints at its stamp. An autopilot that holds each position setpoint for a whole step gets the
+        # reference of the step's middle (a held target trails the moving one by half a step: 50 ms at 10 Hz).
+        lead = 0.5 if v.stack.holds_setpoints else 0.0
+        g.follow(lambda j: m.setpoint_at((j + lead) * dt / 1000.0), n, dt,
                  lambda s: self._check(s, m.setpoint_at(min(max(s.time_boot_ms - t0, 0), n * dt) / 1000.0)[0]),
-                 self.log, resend_s=0.1, lag_ms=lag)
+                 self.log, resend_s=0.1, lag_ms=lag, lead_ms=lead * dt)
         end = m.setpoint_at(n * dt / 1000.0)[0]
         # The trial's gains fly on until the baseline is restored: hold the end point with them for as long as the
         # pre-trial settle, still monitored. Gains that start to diverge in the last steps of the figure-8 trip
