@@ -163,8 +163,9 @@ def probe_uplink(link: Link, rate_hz: float, seconds: float) -> int | None:
 
 
 #: What a campaign listens to (the mission's streams, the pack and wind, the services' answers): never quieted.
+#: (TIMESYNC is not: the round trip is measured with our own requests, which the vehicle answers at any rate.)
 NEEDED = frozenset({"LOCAL_POSITION_NED", "ATTITUDE", "ACTUATOR_OUTPUT_STATUS", "HEARTBEAT", "SYS_STATUS",
-                    "BATTERY_STATUS", "WIND", "WIND_COV", "STATUSTEXT", "COMMAND_ACK", "PARAM_VALUE", "TIMESYNC",
+                    "BATTERY_STATUS", "WIND", "WIND_COV", "STATUSTEXT", "COMMAND_ACK", "PARAM_VALUE",
                     "RADIO_STATUS", "FILE_TRANSFER_PROTOCOL", "AUTOPILOT_VERSION", "EXTENDED_SYS_STATE"})
 
 
