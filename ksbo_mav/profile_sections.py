@@ -166,9 +166,20 @@ class ScoreSpec:
         return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) is not None}
 
 
+@dataclass(frozen=True)
+class CampaignSpec:
+    """``[campaign]``: defaults of ``ksbo-mav tune`` for this vehicle class (the command line overrides them).
+    ``budget``: optimiser trials including the baseline; a copter's profile sets what one battery flies."""
+
+    budget: int = 30
+
+    def __post_init__(self) -> None:
+        _positive(self, "budget")
+
+
 #: Tables of a profile besides [vehicle] and [[gains]], by table name.
 SECTIONS: dict[str, type] = {"trust_region": TrustRegion, "safety": SafetyLimits, "mission": MissionSpec,
-                             "score": ScoreSpec}
+                             "score": ScoreSpec, "campaign": CampaignSpec}
 
 
 def section_from_table(cls: type, table: dict[str, Any], name: str, where: str) -> Any:

@@ -5,7 +5,8 @@ whether the package is installed editable or not; a path to any TOML file works 
 
 Every table is typed and checked when the file is read: ``[vehicle]`` (:data:`VEHICLE_KEYS`), ``[[gains]]``
 (:class:`GainSpec`), ``[trust_region]`` (:class:`TrustRegion`), ``[safety]`` (:class:`SafetyLimits`),
-``[mission]`` (:class:`MissionSpec`) and ``[score]`` (:class:`ScoreSpec`). A key nothing reads is an
+``[mission]`` (:class:`MissionSpec`), ``[score]`` (:class:`ScoreSpec`) and ``[campaign]``
+(:class:`CampaignSpec`). A key nothing reads is an
 :class:`InputError` naming the key and the file (a typo in ``[safety]`` must not silently keep a default limit).
 To add a key, add a field to the table's dataclass (:mod:`ksbo_mav.profile_sections`): its fields are the
 allowed keys.
@@ -23,7 +24,8 @@ import numpy as np
 
 from ksbo_mav.errors import InputError
 from ksbo_mav.profile_sections import (FRAMES, GAIN_EXTRA_KEYS, MISSION_TYPES, SECTIONS, VEHICLE_KEYS,  # noqa: F401
-                                       MissionSpec, SafetyLimits, ScoreSpec, TrustRegion, section_from_table)
+                                       CampaignSpec, MissionSpec, SafetyLimits, ScoreSpec, TrustRegion,
+                                       section_from_table)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -57,6 +59,7 @@ class Profile:
     trust_region: TrustRegion = TrustRegion()
     mission_spec: MissionSpec = MissionSpec()
     score_spec: ScoreSpec = ScoreSpec()
+    campaign_spec: CampaignSpec = CampaignSpec()
 
     @property
     def frame(self) -> str:
@@ -178,7 +181,7 @@ def _parse(data: dict[str, Any], where: str) -> Profile:
     sections = {k: v for k, v in data.items() if k not in {"vehicle", "gains"}}
     return Profile(name=str(vehicle["name"]), vehicle=vehicle, gains=gains, sections=sections, path=where,
                    safety=typed["safety"], trust_region=typed["trust_region"], mission_spec=typed["mission"],
-                   score_spec=typed["score"])
+                   score_spec=typed["score"], campaign_spec=typed["campaign"])
 
 
 def _table(data: dict[str, Any], name: str, where: str) -> dict[str, Any]:

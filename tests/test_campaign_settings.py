@@ -7,7 +7,8 @@ from __future__ import annotations
 import pytest
 
 from ksbo_mav.campaign import CampaignConfig, CampaignDir
-from ksbo_mav.campaign.config import BACKUP_BETA, optimizer_options, prior_kind, prior_size, resolve
+from ksbo_mav.campaign.config import (BACKUP_BETA, optimizer_options, prior_kind, prior_size, resolve,
+                                     with_profile_budget)
 from ksbo_mav.cli import build_parser
 from ksbo_mav.cli.tune import config_from_args
 from ksbo_mav.profiles import load_profile
@@ -65,6 +66,10 @@ def _new_args(tmp_path, *cli: str):
     ("prior", "profile", lambda tmp: prior_kind(CampaignConfig(dir="x"), PLANAR), "sim"),
     ("prior", "profile (copter)", lambda tmp: prior_kind(CampaignConfig(dir="x"), AP), "sim"),
     ("prior", "default", lambda tmp: prior_kind(CampaignConfig(dir="x"), _renamed(AP, "my-hexa")), "local"),
+    # the budget: the command line's, else the profile's [campaign] budget (one pack on the copters), else 30
+    ("budget", "command_line", lambda tmp: with_profile_budget(CampaignConfig(dir="x", budget=7), AP).budget, 7),
+    ("budget", "profile (copter)", lambda tmp: with_profile_budget(CampaignConfig(dir="x"), AP).budget, 10),
+    ("budget", "default", lambda tmp: with_profile_budget(CampaignConfig(dir="x"), PLANAR).budget, 30),
     ("n_prior", "command_line", lambda tmp: prior_size(CampaignConfig(dir="x", n_prior=5), "local"), 5),
     ("n_prior", "default (local)", lambda tmp: prior_size(CampaignConfig(dir="x"), "local"), 8),
     ("n_prior", "default (sim)", lambda tmp: prior_size(CampaignConfig(dir="x"), "sim"), 36),
@@ -82,7 +87,7 @@ def _new_args(tmp_path, *cli: str):
     # settings that define the campaign: the stored ones on resume (a different one is refused), else the default
     ("budget", "command_line", lambda tmp: config_from_args(_new_args(tmp, "--budget", "12")).budget, 12),
     ("budget", "stored", lambda tmp: config_from_args(_resume_args(tmp, {"budget": 12})).budget, 12),
-    ("budget", "default", lambda tmp: config_from_args(_new_args(tmp)).budget, 30),
+    ("budget", "default (the profile's, once connected)", lambda tmp: config_from_args(_new_args(tmp)).budget, None),
 ])
 def test_each_setting_at_each_level(tmp_path, setting, level, value, want):
     assert value(tmp_path) == want, f"{setting} from the {level}"

@@ -124,7 +124,7 @@ def test_score_keys_are_the_fields_of_one_dataclass(tmp_path):
     score = "[score]\nQ = [1, 0.1, 1, 0.1, 0.1, 0.1]\nj_hi = 5\n\n[mission]"
     path = _variant(tmp_path, "sim-planar", "[mission]", score)
     assert load_profile(path).score_spec.given() == {"Q": (1.0, 0.1, 1.0, 0.1, 0.1, 0.1), "j_hi": 5.0}
-    assert set(SECTIONS) == {"trust_region", "safety", "mission", "score"}
+    assert set(SECTIONS) == {"trust_region", "safety", "mission", "score", "campaign"}
 
 
 def test_cli_reports_a_bad_profile_in_one_line(tmp_path):

@@ -64,6 +64,15 @@ def test_accept_then_restore(ardupilot_sitl, campaign):
     accept_then_restore(ardupilot_sitl, d, summary, PROFILE, ["--tcp", f"127.0.0.1:{ardupilot_sitl.tcp_port}"])
 
 
+def test_the_copter_default_campaign_fits_one_pack(ardupilot_sitl, tmp_path):
+    """Without --budget a copter campaign takes its profile's budget: 12 flights with a simulated prior."""
+    r = tool("tune", str(tmp_path / "plan"), *ardupilot_sitl.cli_args, "--dry-run")
+    assert r.returncode == 0, r.stderr
+    assert "method ksbo-adaptive, 10 trials" in r.stdout and "flights: 12 at most (1 baseline + 0 prior + 9 " \
+        "optimiser + up to 1 baseline re-flight + 1 confirmation)" in r.stdout, r.stdout
+    assert not (tmp_path / "plan").exists()
+
+
 def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
     d = tmp_path / "killed"
     cmd = [sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--tcp", f"127.0.0.1:{ardupilot_sitl.tcp_port}",

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 from ksbo_mav.errors import InputError
@@ -25,7 +25,7 @@ class CampaignConfig:
     dir: str
     profile: str | None = None
     method: str = "ksbo-adaptive"  # a vehicle has a monitor: aborts are censored, capped and re-flown around
-    budget: int = 30
+    budget: int | None = None  # None: the profile's [campaign] budget (30 unless it says; the copters' 10)
     seed: int = 0
     prior: str = "auto"  # "sim", "local", "none", "auto" (sim for the built-in planar vehicle, else local)
     n_prior: int = 0  # 0 = default for the prior kind
@@ -55,6 +55,8 @@ class CampaignConfig:
             raise InputError(f"on_drift must be stop or continue, got {self.on_drift!r}")
         for name, lo in (("budget", 1), ("confirm", 0), ("n_prior", 0), ("baseline_every", 0)):
             v = getattr(self, name)
+            if name == "budget" and v is None:
+                continue
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
                 raise InputError(f"{name} must be an integer >= {lo}, got {v!r}")
         if self.prior not in PRIOR_KINDS:
@@ -65,7 +67,7 @@ class CampaignConfig:
             from ksbo_mav.campaign.layout import CampaignDir
 
             CampaignDir.at(self.warm_start).read_result()  # InputError unless a finished campaign
-            if self.budget < 2:
+            if self.budget is not None and self.budget < 2:
                 raise InputError("a warm start needs --budget 2 or more (the baseline and the earlier recommendation)")
         if self.end not in END_MODES:
             raise InputError(f"--end must be land or hold, got {self.end!r}")
@@ -124,6 +126,13 @@ def resolve(command_line: Mapping[str, Any] | None = None, stored: Mapping[str, 
 #: Profiles whose vehicle class has an in-process simulator (the planar task; our JSBSim copter for the copters):
 #: their "auto" prior is simulator episodes, nothing flown.
 SIM_PRIOR_PROFILES = ("sim-planar", "ardupilot-copter", "px4-copter")
+
+
+def with_profile_budget(cfg: CampaignConfig, profile: Any) -> CampaignConfig:
+    """``cfg`` with its budget settled: the command line's (or the stored campaign's), else the profile's."""
+    if cfg.budget is not None:
+        return cfg
+    return replace(cfg, budget=int(profile.campaign_spec.budget))
 
 
 def prior_kind(cfg: CampaignConfig, profile: Any) -> str:

@@ -23,7 +23,7 @@ import numpy as np
 from ksbo_mav.campaign.battery import BatteryGuard, await_failsafe, failsafe_active, failsafe_message
 from ksbo_mav.campaign.conditions import ConditionWatch
 from ksbo_mav.campaign.drift import DriftWatch
-from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, prior_kind
+from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, prior_kind, with_profile_budget
 from ksbo_mav.campaign.confirm import confirm_failures, fly_confirmations
 from ksbo_mav.campaign.ending import end_flight, leave_gains, safe_stop
 from ksbo_mav.campaign.journal import Journal
@@ -80,7 +80,9 @@ class Campaign:
             log(f"report not written: {exc}")
 
     def _connect(self) -> Vehicle:
-        return connect(self.cfg, self.dir, self.endpoint, self.resume, self.connect_timeout, self.log)
+        v = connect(self.cfg, self.dir, self.endpoint, self.resume, self.connect_timeout, self.log)
+        self.cfg = with_profile_budget(self.cfg, v.profile)  # the vehicle's profile is known from here on
+        return v
 
     def dry_run(self) -> str:
         """Connect, print the plan, change nothing (and write nothing)."""
@@ -104,6 +106,7 @@ class Campaign:
         if self.resume:
             check_unchanged(self.dir, cfg.profile, log)
         v = self._connect()
+        cfg = self.cfg
         base: dict[str, float] | None = None
         try:
             if self.resume:  # the rate the campaign flies at (a thin link may have lowered it): the same again

@@ -35,10 +35,11 @@ def add_parser(subparsers) -> None:
                                     "--option max_aborts=N; on the simulated planar task it aborts fewer trials "
                                     "but, in MAVLink campaigns on the built-in vehicle from random moving starts, its "
                                     "recommendations re-fly lower; BENCHMARKS.md), standard, safeopt, ...")
-    p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default 30); the "
-                   "baseline re-flights (--baseline-every), the confirmation and a flown prior's trials come on "
-                   "top: --dry-run prints the total. On the copters 12 flights (--budget 10: one pack) gave at "
-                   "least 90 %% of a 40-flight campaign's cut in 10 of 12 benchmark campaigns (BENCHMARKS.md)")
+    p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default: the "
+                   "profile's, 10 on the copters, i.e. 12 flights, one pack; 30 elsewhere); the baseline "
+                   "re-flights (--baseline-every), the confirmation and a flown prior's trials come on top: "
+                   "--dry-run prints the total. On the copters 12 flights gave at least 90 %% of a 40-flight "
+                   "campaign's cut in 10 of 12 benchmark campaigns (BENCHMARKS.md)")
     p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
     p.add_argument("--prior", choices=("auto", "sim", "local", "none"),
                    help="prior data for kernel selection and the model: simulator episodes in process (sim: the "
@@ -85,7 +86,7 @@ def add_parser(subparsers) -> None:
 class Display:
     """Live progress: one line per trial plus a progress bar (rich)."""
 
-    def __init__(self, budget: int) -> None:
+    def __init__(self, budget: int | None) -> None:
         from rich.console import Console
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -98,14 +99,15 @@ class Display:
     def log(self, text: str) -> None:
         self.console.print(text, markup=False)
 
-    def update(self, e: Any) -> None:
+    def update(self, e: Any, budget: int | None = None) -> None:
         f = e.flight
         mark = "ok" if f.outcome == "ok" else f"ABORT {f.outcome}"
         # One line of at most 80 columns: P < 0 / aborted by the monitor / crashed / failed (not the gains).
         self.console.print(f"{e.kind:>7} trial {f.meta['trial']:3d}  P {f.P:+.4f} {mark:<12} best {e.best_P:+.4f}  "
                            f"P<0 {e.n_unsafe} abort {e.n_aborted} crash {e.n_crashed} fail {e.n_failed}",
                            highlight=False, markup=False, soft_wrap=True)
-        self.progress.update(self.task, completed=e.n_opt, status=f"best P {e.best_P:+.4f}")
+        self.progress.update(self.task, completed=e.n_opt, status=f"best P {e.best_P:+.4f}",
+                             **({"total": budget} if budget else {}))
 
 
 def option_arg(text: str) -> tuple[str, Any]:
@@ -190,8 +192,8 @@ def run(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
     endpoint = endpoint_from_args(args)
     display = Display(cfg.budget)
-    camp = Campaign(cfg, endpoint, resume=bool(args.resume), log=display.log, progress=display.update,
-                    connect_timeout=args.timeout)
+    camp = Campaign(cfg, endpoint, resume=bool(args.resume), log=display.log,
+                    progress=lambda e: display.update(e, camp.cfg.budget), connect_timeout=args.timeout)
     if args.dry_run:
         print(camp.dry_run())
         print("dry run: nothing was written to the vehicle or to disk")
