@@ -8,6 +8,10 @@ check chose, flights, aborted / interrupted / link-lost trials, the campaign's w
 a direct connection, every parameter left different from the snapshot (outside the autopilot-updated list).
 
     python scripts/bench_link_campaign.py [--budget 10] [--stacks ardupilot px4] [--shape SPEC] [--no-write]
+    python scripts/bench_link_campaign.py --report   # results.md from the runs kept, the newest per stack
+
+Each run is appended to ``benchmarks/link-campaign/runs.jsonl``; results.md shows the newest run of each stack
+with the shape and budget asked for.
 """
 
 from __future__ import annotations
@@ -24,14 +28,14 @@ from pathlib import Path
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import BENCH, machine, write_result  # noqa: E402
+from _bench_common import BENCH, append_record, machine, write_result  # noqa: E402
 from bench_sitl_campaign import changed_params, endpoint  # noqa: E402
 
 from ksbo_sim.linkproc import LinkEmulator  # noqa: E402
 from ksbo_sim.process import free_udp_port  # noqa: E402
 from ksbo_sim.sitl import start_sitl  # noqa: E402
 
-RADIO = "down=4000,up=2000,queue=1024,loss=0.05,latency=0.02,seed=1"
+RADIO = "down=4000,up=2000,queue=1024,loss=0.05,latency=0.02,seed=1,radio=1"
 
 
 def run_one(kind: str, budget: int, shape: str, instance: int, rate: int | None = None) -> dict:
@@ -75,6 +79,52 @@ def run_one(kind: str, budget: int, shape: str, instance: int, rate: int | None 
         sitl.stop()
 
 
+RUNS = BENCH / "link-campaign" / "runs.jsonl"
+
+
+def row_of(r: dict) -> str:
+    p = r["params"]
+    pdesc = f"{p[0]} of {p[1]}, {p[2]} s, {p[3]}" if p else "-"
+    dn = r["emulator"].get("down", {})
+    return (f"| {r['kind']} | {r['at']} | {r['rc']}{' ' + r['error'] if 'error' in r else ''} | {pdesc} | "
+            f"{r['rate_hz']} Hz | {r.get('flights', '-')} | {r.get('aborted', '-')} | {r.get('unsafe', '-')} "
+            f"| {r.get('interrupted', '-')} | {r['link_lost']} | {r['wall_s']:.0f} | "
+            f"{len(r['changed_params'])} {', '.join(r['changed_params'][:5])} | "
+            f"{dn.get('lost', '?')} / {dn.get('dropped', '?')} |")
+
+
+def report(budget: int, shape: str, write: bool) -> str:
+    runs = [json.loads(ln) for ln in RUNS.read_text().splitlines() if ln.strip()] if RUNS.exists() else []
+    newest: dict[str, dict] = {}
+    for r in runs:
+        if r.get("budget") == budget and r.get("shape") == shape:
+            newest[r["kind"]] = r
+    table = ["| stack | run (UTC) | exit | parameters (got of n, s, path) | rate flown | flights | aborted | unsafe "
+             "| interrupted | 'link lost' | campaign wall (s) | params left changed | frames lost / dropped by the "
+             "buffer (down) |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    table += [row_of(newest[k]) for k in ("ardupilot", "px4") if k in newest]
+    machines = sorted({r["machine"].rsplit(",", 1)[0] for r in newest.values()})
+    cmd = f"python scripts/bench_link_campaign.py --budget {budget} --shape {shape}"
+    body = f"""Machine: {'; '.join(machines)}. Script: `{cmd}`
+(runs in `runs.jsonl`; this page shows the newest of each stack).
+
+## `tune --budget {budget}` from the ground through a radio-like link
+
+SITLs at real time (1x) from shared/sitl, fresh parameters (PX4 through its MAVLink instance rated 4000 B/s, which
+scales its streams as on a radio port; its API link runs at 4 MB/s); our link emulator
+(`python -m ksbo_sim.linkemu`) between the SITL and the tuner with shape `{shape}`;
+`ksbo-mav tune DIR --udp ... --budget {budget}` with the defaults and an empty parameter cache.
+"params left changed": every parameter read back over a direct connection after the campaign, compared with the
+snapshot (the autopilot's own calibration parameters excluded).
+
+{chr(10).join(table)}
+"""
+    print(body)
+    if write:
+        write_result("link-campaign", body)
+    return body
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--budget", type=int, default=10)
@@ -82,44 +132,14 @@ def main() -> int:
     ap.add_argument("--rate", type=int, default=None, help="pass `--rate HZ` to tune (default: the profile's)")
     ap.add_argument("--shape", default=RADIO, help=f"link emulator shape (default {RADIO})")
     ap.add_argument("--no-write", action="store_true", help="print only, do not write results.md")
-    ap.add_argument("--append", action="store_true", help="keep the tables already in results.md below this one")
+    ap.add_argument("--report", action="store_true", help="only write results.md from the runs kept")
     a = ap.parse_args()
-    rows = []
-    for i, kind in enumerate(a.stacks):
-        rows.append(run_one(kind, a.budget, a.shape, instance=4 + i, rate=a.rate))
-        print(json.dumps(rows[-1], default=str), flush=True)
-    table = ["| stack | exit | parameters (got of n, s, path) | rate flown | flights | aborted | unsafe | interrupted "
-             "| 'link lost' | campaign wall (s) | params left changed | frames lost / dropped by the buffer (down) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        p = r["params"]
-        pdesc = f"{p[0]} of {p[1]}, {p[2]} s, {p[3]}" if p else "-"
-        dn = r["emulator"].get("down", {})
-        table.append(f"| {r['kind']} | {r['rc']}{' ' + r['error'] if 'error' in r else ''} | {pdesc} | "
-                     f"{r['rate_hz']} Hz | {r.get('flights', '-')} | {r.get('aborted', '-')} | {r.get('unsafe', '-')} "
-                     f"| {r.get('interrupted', '-')} | {r['link_lost']} | {r['wall_s']:.0f} | "
-                     f"{len(r['changed_params'])} {', '.join(r['changed_params'][:5])} | "
-                     f"{dn.get('lost', '?')} / {dn.get('dropped', '?')} |")
-    cmd = f"python scripts/bench_link_campaign.py --budget {a.budget} --shape {a.shape}" + (
-        f" --rate {a.rate}" if a.rate else "")
-    body = f"""Machine: {machine()}. Script: `{cmd}`.
-
-## `tune --budget {a.budget}` from the ground through a radio-like link
-
-SITLs at real time (1x) from shared/sitl, fresh parameters (PX4 through its MAVLink instance rated 4000 B/s, which
-scales its streams as on a radio port; its API link runs at 4 MB/s); our link emulator
-(`python -m ksbo_sim.linkemu`) between the SITL and the tuner with shape `{a.shape}`;
-`ksbo-mav tune DIR --udp ... --budget {a.budget}` with the defaults.
-"params left changed": every parameter read back over a direct connection after the campaign, compared with the
-snapshot (the autopilot's own calibration parameters excluded).
-
-{chr(10).join(table)}
-"""
-    print(body)
-    if not a.no_write:
-        out = BENCH / "link-campaign" / "results.md"
-        keep = "\n" + out.read_text() if a.append and out.exists() else ""
-        write_result("link-campaign", body + keep)
+    if not a.report:
+        for i, kind in enumerate(a.stacks):
+            row = run_one(kind, a.budget, a.shape, instance=4 + i, rate=a.rate)
+            append_record(RUNS, {**row, "budget": a.budget, "shape": a.shape, "machine": machine(),
+                                 "at": time.strftime("%Y-%m-%d %H:%M", time.gmtime())})
+    report(a.budget, a.shape, not a.no_write)
     return 0
 
 
