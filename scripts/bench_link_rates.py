@@ -49,9 +49,9 @@ def profile_at(kind: str, rate: int, work: Path) -> Path:
     return path
 
 
-def run_stack(kind: str, rates: list[int], reps: int, instance: int) -> dict:
+def run_stack(kind: str, rates: list[int], reps: int, instance: int, speedup: float) -> dict:
     work = Path(tempfile.mkdtemp(prefix=f"bench-rates-{kind}-"))
-    sitl = start_sitl(kind, instance=instance, speedup=SPEED[kind], workdir=work / "sitl")
+    sitl = start_sitl(kind, instance=instance, speedup=speedup, workdir=work / "sitl")
     out: dict[int, list] = {r: [] for r in rates}
     try:
         if kind == "px4":
@@ -87,10 +87,13 @@ def main() -> int:
     ap.add_argument("--reps", type=int, default=3, help="flights per rate (default 3)")
     ap.add_argument("--rates", type=int, nargs="+", default=[50, 10], help="setpoint = telemetry rates (Hz)")
     ap.add_argument("--stacks", nargs="+", default=["ardupilot", "px4"], choices=sorted(PROFILE))
+    ap.add_argument("--speedup", type=float, default=None,
+                    help="SITL speed-up for every stack (default: ArduCopter 10, PX4 5); a real vehicle flies at 1")
     ap.add_argument("--no-write", action="store_true", help="print only, do not write results.md")
     a = ap.parse_args()
     load0 = os.getloadavg()[0]
-    results = [run_stack(kind, a.rates, a.reps, instance=6 + i) for i, kind in enumerate(a.stacks)]
+    speed = {k: a.speedup or SPEED[k] for k in a.stacks}
+    results = [run_stack(kind, a.rates, a.reps, 6 + i, speed[kind]) for i, kind in enumerate(a.stacks)]
     ref = a.rates[0]
     rows = ["| stack | rate (Hz) | lap-2 RMS per flight (m) | mean (m) | vs " + f"{ref} Hz | outcomes |",
             "|---|---|---|---|---|---|"]
@@ -104,12 +107,12 @@ def main() -> int:
             rows.append(f"| {res['stack']} | {r} | {', '.join(f'{x:.3f}' for x in v)} | {means[r]:.3f} | {rel} | "
                         f"{outs} |")
     body = f"""Machine: {machine()}. Script: `python scripts/bench_link_rates.py --reps {a.reps} --rates \
-{' '.join(map(str, a.rates))}`.
+{' '.join(map(str, a.rates))}{f' --speedup {a.speedup:g}' if a.speedup else ''} --stacks {' '.join(a.stacks)}`.
 
 ## The same gains at 50 Hz and at 10 Hz (setpoints and telemetry)
 
 The default gains of each stack's profile, flown {a.reps} times at each rate, alternating, on one SITL per stack
-(ArduCopter SITL at -s {SPEED['ardupilot']:g}, PX4 SITL at -s {SPEED['px4']:g}); setpoints carry velocity and
+({', '.join(f"{k} SITL at -s {v:g}" for k, v in speed.items())}); setpoints carry velocity and
 acceleration feed-forward. Lap-2 RMS against the analytic figure-8 at the flight's own telemetry samples. 1-min load
 {load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end.
 

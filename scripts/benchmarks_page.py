@@ -91,6 +91,8 @@ MARKDOWN_OUTPUTS = {
     "log_scoring": ("Flight-log scoring", "log-scoring/results.md", 1, ""),
     "link_rates": ("The same gains at 50, 20 and 10 Hz", "link-rates/results.md", 1,
                    "Reading: [docs/links.md](docs/links.md)."),
+    "link_campaign": ("A campaign through a radio-like link", "link-campaign/results.md", 1,
+                      "Reading: [docs/links.md](docs/links.md), its sections on the radio end to end."),
     "short_campaign": ("A tune in one battery: flights to 90 %, copter figures re-flown", "short-campaign/results.md",
                        1, "Reading: [docs/optimizer.md](docs/optimizer.md), its section on the simulator prior."),
     "warm_start": ("Warm start from a finished campaign", "warm-start/results.md", 1, ""),
