@@ -16,6 +16,7 @@ from typing import Any
 from ksbo_mav.errors import VehicleError
 from ksbo_mav.mav.commands import Commander
 from ksbo_mav.mav.link import Link
+from ksbo_mav.mav.wire import mavlink
 
 #: Below this share of the mission rate the trial cannot be flown (the tuner falls behind the vehicle).
 MIN_RATE_SHARE = 0.8
@@ -176,8 +177,6 @@ def quiet_other_streams(cmd: Commander, fig: LinkFigures, above_hz: float = 1.1)
     4 kB/s radio, and PX4 shares a link's budget among its streams in proportion to the rates asked of them: one
     arriving at 1.5 Hz may be asked for 10 Hz and take that share from the mission's stream, so anything faster
     than about once a second is asked down."""
-    from pymavlink.dialects.v20 import ardupilotmega as mavlink
-
     asked = []
     for name, hz in sorted(fig.rates_hz.items()):
         msg_id = getattr(mavlink, f"MAVLINK_MSG_ID_{name}", None)
