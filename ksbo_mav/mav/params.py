@@ -98,8 +98,7 @@ class ParamClient:
         t0 = time.monotonic()
         h = param_cache.read_hash(self.link) if cache else None
         if h is not None and (rows := param_cache.load(cache, h)) is not None:
-            self.table = {name: Param(name, value, ptype, i) for i, (name, value, ptype) in enumerate(rows)}
-            self.count = len(self.table)
+            self._take(rows)
             self.last_download = ParamListing(count=self.count, seconds=time.monotonic() - t0,
                                               path=f"cache, the vehicle's {param_cache.HASH_PARAM} matched")
             return self.table
@@ -115,9 +114,7 @@ class ParamClient:
 
             got, self.ftp_failure = download_ftp(self.link, progress=progress)
             if got is not None:
-                self.table = {name: Param(name, value, ptype, i)
-                              for i, (name, (value, ptype)) in enumerate(got.values.items())}
-                self.count = len(self.table)
+                self._take([(name, value, ptype) for name, (value, ptype) in got.values.items()])
                 self.last_download = ParamListing(count=self.count, seconds=got.seconds, path="MAVLink FTP",
                                                   nbytes=got.nbytes)
                 return
@@ -133,6 +130,11 @@ class ParamClient:
             m = res.values[i]
             self.table[m.param_id] = Param(m.param_id, decode(m.param_value, m.param_type, self.encoding),
                                            int(m.param_type), i)
+
+    def _take(self, rows: list[tuple[str, float, int]]) -> None:
+        """The table from [(name, decoded value, MAV_PARAM_TYPE)] in index order (a file or the cache)."""
+        self.table = {name: Param(name, value, ptype, i) for i, (name, value, ptype) in enumerate(rows)}
+        self.count = len(self.table)
 
     # --- read ------------------------------------------------------------------------------------------------
     def _wait_value(self, name: str, timeout: float) -> Any:
