@@ -515,6 +515,27 @@ def test_ard_acquisition_stops_paying_for_uncertainty_along_flat_dimensions() ->
     assert bo.surrogate.acq_model.n == bo.model.n == 41
 
 
+def test_a_lucky_flight_does_not_stop_the_trust_region_growing() -> None:
+    """The lucky point flew 0.95 once; two neighbouring trials at 0.92 and 0.94 are the better region by the
+    posterior mean though neither beats 0.95 as flown. The second becomes the incumbent: a success, and the region
+    grows (one success grows it here). A trial that does not become the incumbent is no success."""
+    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+
+    model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.3), 2)
+    bo = build_safe_bo(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
+                       adaptive=AdaptiveConfig(trust_region=True, tr_success=1))
+    lucky = np.array([0.8, 0.5])
+    bo.fit(np.array([[0.5, 0.5], lucky]), np.array([0.5, 0.95]))
+    bo.observe(np.array([0.3, 0.5]), 0.92)
+    np.testing.assert_array_equal(bo.trust_region.center, lucky)  # not yet the better region by the mean
+    assert bo.trust_region.radius == pytest.approx(0.1)
+    bo.observe(np.array([0.3, 0.55]), 0.94)
+    np.testing.assert_array_equal(bo.trust_region.center, [0.3, 0.55])
+    assert bo.trust_region.radius == pytest.approx(0.2)
+
+
 def test_the_trust_region_centre_is_never_inside_a_failures_exclusion_ball() -> None:
     """A flew 0.9 and is the best point, but a trial 0.02 from it crashed: with growing balls the trust region
     centres on B (0.6, clear of failures) instead. A centre inside a ball wider than the trust region left no

@@ -87,7 +87,3 @@ class Observations:
     def safe_complete(self) -> np.ndarray:
         """(n,) bool: completed trials that scored at least p_min."""
         return self.complete & (self.y >= self.p_min)
-
-    def best_complete(self) -> float:
-        """The best score among completed trials (−inf before any)."""
-        return float(np.max(self.y[self.complete], initial=-np.inf))

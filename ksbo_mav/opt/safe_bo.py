@@ -124,7 +124,6 @@ class SafeBO:
         done = outcome is Outcome.COMPLETE
         unsafe = y < obs.p_min and sur.scale_target is not None
         shrunk = sur.scale.shrink(done, unsafe, novel=not bool(obs.at(x).any()))
-        best_before = obs.best_complete()
         obs.add(x, y, outcome)
         learn = sur.scale.learn_now(self.iteration, obs.n)
         k = self.refit_every
@@ -139,8 +138,14 @@ class SafeBO:
             if self.certificate.failures is not None:
                 self.certificate.failures.fit(obs.X, ~obs.complete, obs.crashed)
         if self.trust_region is not None:
-            self.trust_region.update(outcome, done and y >= obs.p_min and y > best_before)
-            self.trust_region.center = self._incumbent()
+            # A success is a trial that becomes the incumbent by the posterior mean, not one whose flown value beats
+            # the best flown: after a lucky flight no trial within the noise would beat it, and the region would
+            # never grow (an ArduCopter SITL campaign stalled at 72 % of a long one's cut that way).
+            before = self.trust_region.center
+            center = self._incumbent()
+            moved = before is None or not np.allclose(center, before)
+            self.trust_region.update(outcome, done and y >= obs.p_min and moved and np.allclose(center, x))
+            self.trust_region.center = center
 
     # -- posterior (the acquisition rules' view: opt.acquisition.Posterior) ---------------------------------------
     def bounds(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -1,11 +1,12 @@
 """Trust region of the adaptive safe BO (SCBO/TuRBO-style): a box around the incumbent whose size
 follows the outcomes of the trials flown in it.
 
-State machine: a completed trial that improves the incumbent is a *success*; ``success_tol`` successes in a row
-grow the half-width ×``grow`` (up to ``r_max``); an aborted or crashed trial shrinks it ×``shrink`` (down to
-``r_min``) and resets the success count; a completed trial without improvement leaves it unchanged. Per-dimension
-half-widths are ``radius × w_i`` with ``w`` the safety lengthscales normalised to geometric mean 1, so the box is
-longer along the dimensions the safety model finds smooth.
+State machine: a completed safe trial that becomes the incumbent (the best by the posterior mean, which the
+caller decides) is a *success*; ``success_tol`` successes in a row grow the half-width ×``grow`` (up to
+``r_max``); an aborted or crashed trial shrinks it ×``shrink`` (down to ``r_min``) and resets the success count;
+a completed trial that does not become the incumbent leaves it unchanged. Per-dimension half-widths are
+``radius × w_i`` with ``w`` the safety lengthscales normalised to geometric mean 1, so the box is longer along the
+dimensions the safety model finds smooth.
 """
 
 from __future__ import annotations
