@@ -133,7 +133,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--wind", type=float, default=0.0, help="SITL: SIM_WIND_SPD (m/s)")
     ap.add_argument("--turb", type=float, default=0.0, help="SITL: SIM_WIND_TURB")
-    ap.add_argument("--instance", type=int, default=12)
+    ap.add_argument("--instance", type=int, default=3, help="SITL instance (PX4: 0..9)")
     a = ap.parse_args(argv)
     a.tune = tune
     r = run(a)

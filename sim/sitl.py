@@ -203,8 +203,12 @@ def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str 
 
     ArduCopter's clock only starts once a client connects to SERIAL0; the heartbeat probe connects and
     disconnects (ArduPilot accepts the next client on the same port). :class:`SitlNotFound` if no SITL is
-    installed, RuntimeError (with the process output) if it does not come up.
+    installed, RuntimeError (with the process output) if it does not come up, ValueError for a PX4 instance
+    outside 0..9.
     """
+    if kind == "px4" and not 0 <= instance <= 9:
+        # PX4's startup script sends every instance from 10 up to one API port (14549), not 14540+N.
+        raise ValueError(f"PX4 SITL instance {instance}: use 0..9 (instances from 10 up share one API port)")
     script = find_run_script(kind)
     own = workdir is None
     wd = Path(tempfile.mkdtemp(prefix=f"ksbo-{kind}-sitl-")) if own else Path(workdir)

@@ -84,7 +84,8 @@ class AdaptiveConfig:
             completed trials; no lengthscale exceeds ``scale_extent_factor`` × the data's extent along its
             dimension, and before any fit the scale starts at ``safety_scale_bounds[0]`` (small steps first).
         trust_region: candidates stay in a box around the incumbent whose half-width grows ×``tr_grow`` after
-            ``tr_success`` safe improvements and shrinks ×``tr_shrink`` after an abort or crash (opt.trust_region).
+            every ``tr_success`` trials that become the incumbent and shrinks ×``tr_shrink`` after an abort or
+            crash, which also resets the count (opt.trust_region).
         max_aborts: abort budget, a hard cap: once that many trials of the run aborted or crashed the run ends
             (so it is never exceeded). None = no cap.
         backup_beta: None = only certified queries (β), the paper's rule. A number enables exploration the

@@ -2,7 +2,7 @@
 follows the outcomes of the trials flown in it.
 
 State machine: a completed safe trial that becomes the incumbent (the best by the posterior mean, which the
-caller decides) is a *success*; ``success_tol`` successes in a row grow the half-width ×``grow`` (up to
+caller decides) is a *success*; every ``success_tol`` successes grow the half-width ×``grow`` (up to
 ``r_max``); an aborted or crashed trial shrinks it ×``shrink`` (down to ``r_min``) and resets the success count;
 a completed trial that does not become the incumbent leaves it unchanged. Per-dimension half-widths are
 ``radius × w_i`` with ``w`` the safety lengthscales normalised to geometric mean 1, so the box is longer along the
