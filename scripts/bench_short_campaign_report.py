@@ -67,7 +67,7 @@ def report(runs_path: Path) -> None:
         "on the vehicle the campaign left hovering, the baseline (B), the long campaign's recommendation (L), "
         "this campaign's recommendation (R) and the best flown gains at the last four flights where they changed, "
         "flown in turn 3 times each (same condition, same speed-up). L: a ~40-flight campaign on the same vehicle "
-        "and condition, today's default with `--budget 35` (41 flights, rows \"long\" below). The paper's rows "
+        "and condition, today's default with `--budget 35` (39 flights, rows \"long\" below). The paper's rows "
         "were measured against the long campaigns of the previous default (benchmarks/notes/short-campaign.md).",
         "",
         f"Machine: {machine}. Unsafe: optimiser trials with P < 0; aborted: trials the monitor stopped (the "
