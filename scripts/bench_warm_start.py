@@ -112,10 +112,10 @@ def report() -> None:
         "",
         "Command: `python scripts/bench_warm_start.py --earlier DIR --stack ardupilot|copter3d [--wind MPS] [--drag "
         "X] --budget 5`, then `--report`. The earlier campaigns: today's default with `--budget 35` on the same "
-        "profile (ArduCopter SITL calm, and our JSBSim copter static: the long runs of bench_short_campaign.py). Each warm "
-        "campaign runs on a fresh vehicle; then the baseline (B), the earlier recommendation (E) and the warm one "
-        "(W) are flown in turn three times on the vehicle it left hovering (B E W x3, the same condition; means "
-        "below).",
+        "profile (ArduCopter SITL calm, and our JSBSim copter static: the long runs of bench_short_campaign.py). "
+        "Each warm campaign runs on a fresh vehicle; then the baseline (B), the earlier recommendation (E) and "
+        "the warm one (W) are flown in turn three times on the vehicle it left hovering (B E W x3, the same "
+        "condition; means below).",
         "",
         f"Machine: {runs[-1]['machine']}. Flights: every flight of the warm campaign (baseline, the earlier "
         "recommendation, optimiser trials, confirmation). Reached at: the first of its flights (the baseline "
