@@ -21,7 +21,7 @@ def realtime_through(shape: str) -> tuple[SimProcess, LinkEmulator, Endpoint]:
 def check_link_through(shape: str, seconds: float = 2.0) -> tuple[LinkFigures, int, list[str]]:
     """The campaign's link check through a link shaped ``shape``: (its figures, the mission rate it left, what it
     said)."""
-    from ksbo_mav.campaign.link_check import check_link
+    from ksbo_mav.campaign.mission_rate import check_link
 
     sim, emu, ep = realtime_through(shape)
     said: list[str] = []

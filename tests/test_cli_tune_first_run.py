@@ -16,10 +16,10 @@ from ksbo_sim.process import SimProcess, free_udp_port
 
 
 @pytest.mark.parametrize("bad,words", [
-    (["--method", "ksb"], ["unknown method 'ksb'", "ksbo"]),
+    (["--method", "ksb"], ["method must be one of ksbo, ksbo-adaptive", "got 'ksb'"]),
     (["--profile", "no-such-profile"], ["no-such-profile"]),
-    (["--n-prior", "-3"], ["n_prior"]),
-    (["--sysid", "300"], ["sysid", "1..255"]),
+    (["--n-prior", "-3"], ["n_prior (--n-prior) must be an integer in [0, inf), got -3"]),
+    (["--sysid", "300"], ["sysid must be an integer in [1, 255], got 300"]),
     (["--option", "backup_beta=-1"], ["option backup_beta=-1 is not allowed", "a number in (0, inf) or null"]),
     (["--option", "backup_beta"], ["KEY=VALUE"]),
 ])
@@ -43,7 +43,7 @@ def test_an_unknown_option_is_refused_with_the_list_of_options_one_line_each(tmp
 def test_demo_refuses_a_bad_method_before_starting_the_simulator(tmp_path):
     d = tmp_path / "demo"
     r = run("demo", "--method", "ksb", "--dir", str(d), cwd=tmp_path)
-    one_line_error(r, "unknown method 'ksb'", "ksbo-adaptive")
+    one_line_error(r, "method must be one of ksbo, ksbo-adaptive", "got 'ksb'")
     assert "starting the simulator" not in r.stdout  # nothing was started, flown or written
     assert not d.exists() and not (tmp_path / "ksbo-demo-runs").exists()
 

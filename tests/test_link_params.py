@@ -167,7 +167,7 @@ def test_a_link_too_thin_for_the_mission_is_refused_before_arming_in_one_line(tm
 def test_a_link_too_thin_for_50_hz_flies_at_the_highest_rate_it_carries() -> None:
     """2 kB/s down: 50 Hz loses half the frames, so the check steps the mission down (setpoints and telemetry)
     to the first rate that arrives nearly whole, says so, and keeps the profile's rate in the figures."""
-    from ksbo_mav.campaign.link_check import MAX_LOSS_REDUCED, REDUCED_RATES_HZ
+    from ksbo_mav.campaign.mission_rate import MAX_LOSS_REDUCED, REDUCED_RATES_HZ
 
     fig, rate, said = check_link_through("down=2000,up=2000,queue=1024,seed=5")
     assert rate in REDUCED_RATES_HZ and fig.reduced_from_hz == 50, said
@@ -179,7 +179,7 @@ def test_a_link_too_thin_for_50_hz_flies_at_the_highest_rate_it_carries() -> Non
 @pytest.mark.network
 def test_a_link_that_carries_the_mission_passes_and_its_figures_are_kept(tmp_path) -> None:
     from ksbo_mav.campaign.layout import CampaignDir
-    from ksbo_mav.campaign.link_check import check_link, record_link
+    from ksbo_mav.campaign.mission_rate import check_link, record_link
 
     sim, emu, ep = realtime_through("down=20000,up=20000,queue=4096,latency=0.01")
     try:

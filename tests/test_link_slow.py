@@ -13,7 +13,7 @@ import time  # noqa: E402
 
 import pytest  # noqa: E402
 
-from ksbo_mav.campaign.link_check import check_link  # noqa: E402
+from ksbo_mav.campaign.mission_rate import check_link  # noqa: E402
 from ksbo_mav.errors import LinkLost, VehicleError  # noqa: E402
 from ksbo_mav.mav.link import Endpoint  # noqa: E402
 from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
@@ -132,7 +132,7 @@ def test_the_vehicles_own_streams_are_quieted_before_the_mission_rate_is_lowered
     streams alone (about 4.4 kB/s of 6.4): the check asks for those streams once a second and keeps 50 Hz."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-    from ksbo_mav.campaign.link_check import check_link
+    from ksbo_mav.campaign.mission_rate import check_link
 
     sim, emu, ep = realtime_through("down=5400,up=20000,queue=1024,seed=2")
     said: list[str] = []

@@ -1,5 +1,7 @@
-"""A campaign's settings: one typed, validated object, checked before anything connects or is written, and
-:func:`resolve`, the one place that decides which value a setting takes when several places give one."""
+"""A campaign's settings: one typed object whose every field is declared once
+(:data:`ksbo_mav.campaign.settings.SETTINGS`: what it accepts, its default), checked before anything connects or is
+written; :func:`resolve`, the one place that decides which value a setting takes when several places give one, and
+:func:`settle`, which applies it once the vehicle's profile is known."""
 
 from __future__ import annotations
 
@@ -8,77 +10,63 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
+from ksbo_mav.campaign.settings import REQUIRED, SETTING, SETTINGS, check_setting
 from ksbo_mav.errors import InputError
 
-PRIOR_KINDS = ("auto", "sim", "local", "none")
 #: Default prior sizes: simulator episodes (computed, free) and flown local prior trials.
 PRIOR_SIZES = {"sim": 36, "local": 8}
-END_MODES = ("land", "hold")
 #: Settings that may differ on ``--resume`` (they do not change what the optimiser has seen).
 RESUMABLE = ("dir", "accept", "end", "sysid", "compid")
 
 
+def _default(name: str) -> Any:
+    """The dataclass default of a setting, from its declaration (a fresh dict for a table)."""
+    d = SETTING[name].default
+    if d is REQUIRED:
+        return field()
+    return field(default_factory=lambda: dict(d)) if isinstance(d, dict) else field(default=d)
+
+
 @dataclass
 class CampaignConfig:
-    """What ``ksbo-mav tune`` was asked to do. :meth:`validate` checks every field once."""
+    """What ``ksbo-mav tune`` was asked to do; meaning, allowed values and defaults: ``SETTINGS``.
+    :meth:`validate` checks every field once."""
 
-    dir: str
-    profile: str | None = None
-    method: str = "ksbo-adaptive"  # a vehicle has a monitor: aborts are censored, capped and re-flown around
-    budget: int | None = None  # None: the profile's [campaign] budget (30 unless it says; the copters' 10)
-    seed: int = 0
-    prior: str = "auto"  # "sim", "local", "none", "auto" (sim for the built-in planar vehicle, else local)
-    n_prior: int = 0  # 0 = default for the prior kind
-    confirm: int = 1
-    widen: bool = False  # extend a search-box bound the recommendation ends on (ksbo_mav.campaign.widen)
-    warm_start: str | None = None  # a finished campaign's directory to start from (ksbo_mav.campaign.warm_start)
-    baseline_every: int = 7  # re-fly the baseline after this many optimiser trials, drift test (0: never)
-    on_drift: str = "stop"  # when the drift test fires: "stop" (land, resumable) or "continue" (corrected scores)
-    rate_hz: int | None = None  # mission rate (setpoints and telemetry); None: the profile's, lowered by the link check
-    accept: bool = False
-    end: str = "land"  # "land" or "hold"
-    settle_s: float = 1.0
-    sysid: int | None = None  # our own MAVLink ids (None: the link's defaults)
-    compid: int | None = None
-    safety: dict[str, float] = field(default_factory=dict)
-    options: dict[str, Any] = field(default_factory=dict)
+    dir: str = _default("dir")
+    profile: str | None = _default("profile")
+    method: str = _default("method")
+    budget: int | None = _default("budget")  # None: the profile's, decided by settle() once connected
+    seed: int = _default("seed")
+    prior: str = _default("prior")
+    n_prior: int = _default("n_prior")  # 0 = default for the prior kind (prior_size)
+    confirm: int = _default("confirm")
+    widen: bool = _default("widen")
+    warm_start: str | None = _default("warm_start")
+    baseline_every: int = _default("baseline_every")
+    on_drift: str = _default("on_drift")
+    rate_hz: int | None = _default("rate_hz")  # None: the profile's; settle() decides the rate flown
+    accept: bool = _default("accept")
+    end: str = _default("end")
+    settle_s: float = _default("settle_s")
+    sysid: int | None = _default("sysid")
+    compid: int | None = _default("compid")
+    safety: dict[str, float] = _default("safety")
+    options: dict[str, Any] = _default("options")
 
     def validate(self) -> "CampaignConfig":
-        """InputError naming the bad setting; also loads the profile (if named) and checks the optimiser options."""
-        from ksbo_mav.opt import METHODS
+        """InputError naming the bad setting and what it accepts; also loads the profile (if named), the warm
+        start's campaign, and checks the optimiser options against their own declarations."""
         from ksbo_mav.opt.options import options_for
         from ksbo_mav.profiles import load_profile
 
-        if self.method not in METHODS:
-            raise InputError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
-        if self.on_drift not in ("stop", "continue"):
-            raise InputError(f"on_drift must be stop or continue, got {self.on_drift!r}")
-        for name, lo in (("budget", 1), ("confirm", 0), ("n_prior", 0), ("baseline_every", 0)):
-            v = getattr(self, name)
-            if name == "budget" and v is None:
-                continue
-            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise InputError(f"{name} must be an integer >= {lo}, got {v!r}")
-        if self.prior not in PRIOR_KINDS:
-            raise InputError(f"unknown prior {self.prior!r}; choose {', '.join(PRIOR_KINDS)}")
-        if not isinstance(self.widen, bool):
-            raise InputError(f"widen must be true or false, got {self.widen!r}")
+        for s in SETTINGS:
+            check_setting(s.name, getattr(self, s.name))
         if self.warm_start is not None:
             from ksbo_mav.campaign.layout import CampaignDir
 
             CampaignDir.at(self.warm_start).read_result()  # InputError unless a finished campaign
             if self.budget is not None and self.budget < 2:
                 raise InputError("a warm start needs --budget 2 or more (the baseline and the earlier recommendation)")
-        if self.end not in END_MODES:
-            raise InputError(f"--end must be land or hold, got {self.end!r}")
-        for name in ("sysid", "compid"):
-            v = getattr(self, name)
-            if v is not None and not 1 <= v <= 255:
-                raise InputError(f"--{name} must be in 1..255, got {v}")
-        if self.rate_hz is not None and (isinstance(self.rate_hz, bool) or self.rate_hz not in (50, 25, 20, 10)):
-            raise InputError(f"--rate must be 50, 25, 20 or 10 (Hz), got {self.rate_hz!r}")
-        if not self.settle_s >= 0:
-            raise InputError(f"settle_s must be >= 0, got {self.settle_s}")
         if self.profile is not None:
             load_profile(self.profile)  # InputError if bad
         options_for(self.method, optimizer_options("none", self.options))
@@ -128,11 +116,32 @@ def resolve(command_line: Mapping[str, Any] | None = None, stored: Mapping[str, 
 SIM_PRIOR_PROFILES = ("sim-planar", "ardupilot-copter", "px4-copter")
 
 
-def with_profile_budget(cfg: CampaignConfig, profile: Any) -> CampaignConfig:
-    """``cfg`` with its budget settled: the command line's (or the stored campaign's), else the profile's."""
-    if cfg.budget is not None:
-        return cfg
-    return replace(cfg, budget=int(profile.campaign_spec.budget))
+@dataclass(frozen=True)
+class MissionRate:
+    """The rate (Hz) a campaign flies its mission at (setpoints and telemetry), and whether the link check may
+    step it down (only a new campaign's rate that nobody asked for: the profile's)."""
+
+    hz: int
+    lowerable: bool
+
+
+def settle(cfg: CampaignConfig, profile: Any, stored: Mapping[str, Any] | None = None
+           ) -> tuple[CampaignConfig, MissionRate]:
+    """The settings that depend on the vehicle, decided once its profile is known and before anything is built
+    from them (the progress display, the link check, the optimiser); the one place that decides them.
+
+    ``cfg`` holds what the command line gives over the stored campaign's settings (``config_from_args``, by
+    :func:`resolve`); ``stored`` is campaign.json on a resume (None: a new campaign). The budget: ``cfg``'s, else
+    the profile's ``[campaign] budget``. The mission rate: ``--rate``, else the rate the campaign flew at (the
+    link check may have lowered it when it started), else the profile's."""
+    budget = resolve(command_line={} if cfg.budget is None else {"budget": cfg.budget},
+                     profile={"budget": int(profile.campaign_spec.budget)})["budget"]
+    flown = ((stored or {}).get("mission") or {}).get("rate_hz")
+    rate = resolve(command_line={"rate_hz": cfg.rate_hz} if cfg.rate_hz else {},
+                   stored={"rate_hz": int(flown)} if flown else {},
+                   profile={"rate_hz": int(profile.mission_spec.rate_hz)})["rate_hz"]
+    settled = replace(cfg, budget=budget).validate()
+    return settled, MissionRate(rate, lowerable=stored is None and not cfg.rate_hz)
 
 
 def prior_kind(cfg: CampaignConfig, profile: Any) -> str:

@@ -17,18 +17,20 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from ksbo_mav.campaign.battery import BatteryGuard, await_failsafe, failsafe_active, failsafe_message
 from ksbo_mav.campaign.conditions import ConditionWatch
 from ksbo_mav.campaign.drift import DriftWatch
-from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, prior_kind, with_profile_budget
+from ksbo_mav.campaign.config import CampaignConfig, MissionRate, optimizer_options, prior_kind, settle
 from ksbo_mav.campaign.confirm import confirm_failures, fly_confirmations
 from ksbo_mav.campaign.ending import end_flight, leave_gains, safe_stop
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir
-from ksbo_mav.campaign.link_check import check_link, record_link
+from ksbo_mav.campaign.mission_rate import fly_at, record_link
 from ksbo_mav.campaign.plan import campaign_plan
 from ksbo_mav.campaign.prior import campaign_prior
 from ksbo_mav.campaign.report import write_report
@@ -50,22 +52,188 @@ from ksbo_mav.mav.snapshot import load_snapshot
 from ksbo_mav.mav.vehicle import Vehicle
 
 
+@dataclass(frozen=True)
+class Policy:
+    """What the flying will do, decided before it starts."""
+
+    prior: str  # the prior's kind: "sim", "local" or "none"
+    prior_on_ground: bool  # simulator episodes, computed before takeoff: no hover spent waiting for them
+    warm: bool  # start from an earlier campaign (its flights are the prior)
+    widen: bool  # move a search-box bound the recommendation ends on
+
+
 class Campaign:
-    """One tuning campaign on one vehicle (``resume``: continue the one in ``cfg.dir``)."""
+    """One tuning campaign on one vehicle (``resume``: continue the one in ``cfg.dir``). ``on_settled`` hears the
+    settings once the vehicle's profile has decided the rest of them (the budget), before anything is flown."""
 
     def __init__(self, cfg: CampaignConfig, endpoint: Endpoint, *, resume: bool = False,
                  log: Callable[[str], None] = print, progress: Callable[[TrialEvent], None] | None = None,
-                 connect_timeout: float = 15.0) -> None:
+                 connect_timeout: float = 15.0, on_settled: Callable[[CampaignConfig], None] | None = None) -> None:
         self.cfg, self.endpoint, self.resume, self.log = cfg, endpoint, resume, log
         self.progress = progress or (lambda event: None)
+        self.on_settled = on_settled or (lambda cfg: None)
         self.connect_timeout = connect_timeout
         self.dir = CampaignDir.at(cfg.dir)
+        self.rate: MissionRate | None = None  # decided by settle() once connected
+        self.base: dict[str, float] | None = None  # the baseline parameters, once read from the vehicle
 
     @property
     def resume_hint(self) -> str:
         ep = self.endpoint
         where = f"--{ep.kind} {ep.host}:{ep.port}" if ep.kind in ("udp", "udpout", "tcp") else f"--serial {ep.host}"
         return f"ksbo-mav tune --resume {self.dir.root} {where}"
+
+    def dry_run(self) -> str:
+        """Connect, print the plan, change nothing (and write nothing)."""
+        v = self._connect()
+        try:
+            base = baseline_params(v, self.dir, False, self.log) if not self.resume else \
+                load_snapshot(self.dir.root).baseline()
+            return campaign_plan(v, self.cfg, self.dir, base)
+        finally:
+            v.close()
+
+    def run(self) -> CampaignSummary:
+        """Connect and settle the settings, preflight (mission rate and link, baseline, checks), record the
+        campaign, fly it (prior, baseline, search, confirmation) and end it (gains, landing, result). A stop on the
+        way restores the baseline and lands, or leaves a failsafe to the autopilot."""
+        if not self.resume and self.dir.exists():
+            raise InputError(f"{self.dir.root} already holds a campaign; use --resume {self.dir.root} or another "
+                             "directory")
+        v = self._connect()
+        try:
+            link = self._preflight(v)
+            self._record(v, link)
+            return self._fly(v)
+        except (KeyboardInterrupt, KsboError) as exc:
+            self._stop(v, exc)
+            raise
+        finally:
+            v.close()
+
+    def _connect(self) -> Vehicle:
+        """A resume's profile checked unchanged, the vehicle connected, and the settings that depend on it settled."""
+        if self.resume:
+            check_unchanged(self.dir, self.cfg.profile, self.log)
+        v = connect(self.cfg, self.dir, self.endpoint, self.resume, self.connect_timeout, self.log)
+        try:
+            self.cfg, self.rate = settle(self.cfg, v.profile, self.dir.read_settings() if self.resume else None)
+            self.on_settled(self.cfg)
+        except BaseException:
+            v.close()
+            raise
+        return v
+
+    def _preflight(self, v: Vehicle) -> Any:
+        """Everything checked before anything is written to the campaign: the mission rate the link carries, the
+        baseline gains (a resume restores them), a start the monitor accepts, the options' gain names, a warm
+        start's match. Returns the link's figures."""
+        assert self.rate is not None
+        link = fly_at(v, self.rate, self.log)
+        self.base = baseline_params(v, self.dir, self.resume, self.log)
+        check_moving_start(v.mission, limits_from_profile(v.profile, self.cfg.safety))
+        optimizer_options("none", self.cfg.options, self.cfg.method, v.profile)  # gain names: before flying
+        if self.cfg.warm_start:
+            Earlier(self.cfg.warm_start).check_matches(v)
+        return link
+
+    def _record(self, v: Vehicle, link: Any) -> None:
+        """A new campaign's snapshot and settings (the directory exists from here on); the link's figures."""
+        if not self.resume:
+            create_campaign(self.dir, self.cfg, v, self.base, self.log)
+        record_link(self.dir, link)
+
+    def _trials(self, v: Vehicle) -> TrialLoop:
+        """The journalled trial loop with its watches (battery, drift, flight conditions)."""
+        cfg = self.cfg
+        journal = Journal(self.dir.journal)
+        objective = MavlinkObjective(v, self.base, self.dir.trials, safety=cfg.safety, settle_s=cfg.settle_s,
+                                     first_index=self.dir.next_trial_index(), start_seed=cfg.seed, log=self.log)
+        trials = TrialLoop(objective, journal, self.progress, self.log, BatteryGuard(v, self.resume_hint))
+        trials.drift = DriftWatch(every=cfg.baseline_every, on_drift=cfg.on_drift, resume_hint=self.resume_hint)
+        trials.drift.restore(journal)
+        trials.conditions = ConditionWatch(v)
+        return trials
+
+    def _policy(self, v: Vehicle, journal: Journal) -> Policy:
+        cfg = self.cfg
+        kind = prior_kind(cfg, v.profile)
+        if cfg.prior == "auto" and journal.of("prior"):
+            kind = "local"  # resumed from when "auto" meant a flown prior for this profile: it keeps it
+        warm = bool(cfg.warm_start)
+        return Policy(prior=kind, prior_on_ground=kind == "sim" and not warm, warm=warm,
+                      widen=cfg.widen or v.profile.trust_region.widen)
+
+    def _fly(self, v: Vehicle) -> CampaignSummary:
+        from threadpoolctl import threadpool_limits
+
+        cfg, log = self.cfg, self.log
+        x0 = v.gain_map.from_params(self.base)
+        bounds = opt_bounds(v.profile, x0)
+        trials = self._trials(v)
+        policy = self._policy(v, trials.journal)
+        started = time.time()
+        prior = None
+        if policy.prior_on_ground:
+            with threadpool_limits(1):
+                prior = campaign_prior(policy.prior, cfg, self.dir, v.profile, x0, bounds, [], _flies_nothing, log)
+        baseline_trial = trials.fly_baseline(x0)
+        with threadpool_limits(1):
+            result, unused = self._search(v, trials, policy, x0, bounds, prior)
+        return self._end(v, trials, result, unused, x0, baseline_trial, started)
+
+    def _search(self, v: Vehicle, trials: TrialLoop, policy: Policy, x0: np.ndarray, bounds: np.ndarray,
+                prior: Any) -> tuple[Any, Any]:
+        """The optimiser's trials (a flown prior first), and a widened box's when the policy says so."""
+        cfg, log = self.cfg, self.log
+        if policy.warm:
+            prior, result, unused, bounds = warm_search(trials, cfg, v, x0, log)
+        else:
+            if not policy.prior_on_ground:
+                prior = campaign_prior(policy.prior, cfg, self.dir, v.profile, x0, bounds,
+                                       [e.P for e in trials.journal.of("prior")], lambda x: trials.fly(x, "prior").P,
+                                       log)
+            result, unused = search(trials, cfg, x0, bounds, prior, self.resume, log)
+        if policy.widen:
+            result, unused, bounds = widen_search(trials, cfg, v, self.dir, bounds, prior, result, unused, log)
+        return result, unused
+
+    def _end(self, v: Vehicle, trials: TrialLoop, result: Any, unused: Any, x0: np.ndarray, baseline_trial: Any,
+             started: float) -> CampaignSummary:
+        """Confirm the recommendation, leave the gains (restored, or accepted), land or hold, write the result."""
+        cfg, log, base, journal = self.cfg, self.log, self.base, trials.journal
+        best = np.asarray(result.x, dtype=float)
+        confirms = fly_confirmations(trials, best, cfg.confirm)
+        wall_s = time.time() - started
+        best_params = v.gain_map.to_params(best)
+        failures = confirm_failures(journal.of("confirm"))
+        accepted = leave_gains(v, self.dir, cfg.accept, base, best_params, failures, log)
+        on_vehicle = {n: v.params.table[n].value for n in base}
+        ended = end_flight(v, cfg.end, False, log)
+        summary = summarize(journal, result, baseline_x=x0, base=base, baseline_trial=baseline_trial,
+                            best_params=best_params, confirms=confirms, failures=failures, unused=unused,
+                            accepted=accepted, accept=cfg.accept, on_vehicle=on_vehicle, method=cfg.method,
+                            wall_s=wall_s, d=self.dir, ended=ended)
+        write_result(self.dir, summary, v.profile, log)
+        return summary
+
+    def _stop(self, v: Vehicle, exc: BaseException) -> None:
+        """A campaign stopped on the way: the baseline gains back, and landed — unless the autopilot's failsafe
+        flies the vehicle (never overridden: a resumable pause); a pause writes the report of what was flown."""
+        log = self.log
+        flight = getattr(exc, "flight", None)
+        failsafe = failsafe_active(v) or (flight is not None and flight.outcome == "failsafe")
+        if self.base is not None and not isinstance(exc, InputError):
+            safe_stop(v, self.base, str(self.dir.root), log)
+        if failsafe:
+            await_failsafe(v, log)
+        else:
+            end_flight(v, self.cfg.end, True, log)
+        if failsafe or isinstance(exc, CampaignPaused):
+            self._report_after_stop(v, log)
+            if failsafe:
+                trial = flight.meta.get("trial") if flight is not None else None
+                raise CampaignPaused(failsafe_message(v, trial, self.resume_hint)) from None
 
     def _report_after_stop(self, v: Vehicle, log: Callable[[str], None]) -> None:
         """The report of a campaign stopped to be resumed (what was flown so far); a report that cannot be made is
@@ -78,112 +246,6 @@ class Campaign:
                 log(f"report: {paths['page']}")
         except Exception as exc:  # noqa: BLE001 - the stop's own message matters more
             log(f"report not written: {exc}")
-
-    def _connect(self) -> Vehicle:
-        v = connect(self.cfg, self.dir, self.endpoint, self.resume, self.connect_timeout, self.log)
-        self.cfg = with_profile_budget(self.cfg, v.profile)  # the vehicle's profile is known from here on
-        return v
-
-    def dry_run(self) -> str:
-        """Connect, print the plan, change nothing (and write nothing)."""
-        if self.resume:
-            check_unchanged(self.dir, self.cfg.profile, self.log)
-        v = self._connect()
-        try:
-            base = baseline_params(v, self.dir, False, self.log) if not self.resume else \
-                load_snapshot(self.dir.root).baseline()
-            return campaign_plan(v, self.cfg, self.dir, base)
-        finally:
-            v.close()
-
-    def run(self) -> CampaignSummary:
-        from threadpoolctl import threadpool_limits
-
-        cfg, log = self.cfg, self.log
-        if not self.resume and self.dir.exists():
-            raise InputError(f"{self.dir.root} already holds a campaign; use --resume {self.dir.root} or another "
-                             "directory")
-        if self.resume:
-            check_unchanged(self.dir, cfg.profile, log)
-        v = self._connect()
-        cfg = self.cfg
-        base: dict[str, float] | None = None
-        try:
-            if self.resume:  # the rate the campaign flies at (a thin link may have lowered it): the same again
-                v.set_mission_rate(int(self.dir.read_settings().get("mission", {}).get("rate_hz",
-                                                                                      v.mission.rate_hz)))
-            elif cfg.rate_hz:
-                v.set_mission_rate(cfg.rate_hz)
-            # before anything is read for, or written to, the campaign
-            link = check_link(v, log, reduce=not self.resume and not cfg.rate_hz)
-            base = baseline_params(v, self.dir, self.resume, log)
-            check_moving_start(v.mission, limits_from_profile(v.profile, cfg.safety))
-            optimizer_options("none", cfg.options, cfg.method, v.profile)  # gain names: before flying
-            if cfg.warm_start:
-                Earlier(cfg.warm_start).check_matches(v)
-            if not self.resume:
-                create_campaign(self.dir, cfg, v, base, log)
-            record_link(self.dir, link)
-            x0 = v.gain_map.from_params(base)
-            bounds = opt_bounds(v.profile, x0)
-            journal = Journal(self.dir.journal)
-            objective = MavlinkObjective(v, base, self.dir.trials, safety=cfg.safety, settle_s=cfg.settle_s,
-                                         first_index=self.dir.next_trial_index(), start_seed=cfg.seed, log=log)
-            trials = TrialLoop(objective, journal, self.progress, log, BatteryGuard(v, self.resume_hint))
-            trials.drift = DriftWatch(every=cfg.baseline_every, on_drift=cfg.on_drift, resume_hint=self.resume_hint)
-            trials.drift.restore(journal)
-            trials.conditions = ConditionWatch(v)
-            started = time.time()
-            kind = prior_kind(cfg, v.profile)
-            if cfg.prior == "auto" and journal.of("prior"):
-                kind = "local"  # resumed from when "auto" meant a flown prior for this profile: it keeps it
-            prior = None
-            if kind == "sim" and not cfg.warm_start:  # simulated before takeoff: no hover spent waiting for it
-                with threadpool_limits(1):
-                    prior = campaign_prior(kind, cfg, self.dir, v.profile, x0, bounds, [], _flies_nothing, log)
-            baseline_trial = trials.fly_baseline(x0)
-            with threadpool_limits(1):
-                if cfg.warm_start:
-                    prior, result, unused, bounds = warm_search(trials, cfg, v, x0, log)
-                else:
-                    if kind != "sim":
-                        prior = campaign_prior(kind, cfg, self.dir, v.profile, x0, bounds,
-                                               [e.P for e in journal.of("prior")], lambda x: trials.fly(x, "prior").P,
-                                               log)
-                    result, unused = search(trials, cfg, x0, bounds, prior, self.resume, log)
-                if cfg.widen or v.profile.trust_region.widen:
-                    result, unused, bounds = widen_search(trials, cfg, v, self.dir, bounds, prior, result, unused, log)
-            best = np.asarray(result.x, dtype=float)
-            confirms = fly_confirmations(trials, best, cfg.confirm)
-            wall_s = time.time() - started
-            best_params = v.gain_map.to_params(best)
-            failures = confirm_failures(journal.of("confirm"))
-            accepted = leave_gains(v, self.dir, cfg.accept, base, best_params, failures, log)
-            on_vehicle = {n: v.params.table[n].value for n in base}
-            ended = end_flight(v, cfg.end, False, log)
-            summary = summarize(journal, result, baseline_x=x0, base=base, baseline_trial=baseline_trial,
-                                best_params=best_params, confirms=confirms, failures=failures, unused=unused,
-                                accepted=accepted, accept=cfg.accept, on_vehicle=on_vehicle, method=cfg.method,
-                                wall_s=wall_s, d=self.dir, ended=ended)
-            write_result(self.dir, summary, v.profile, log)
-            return summary
-        except (KeyboardInterrupt, KsboError) as exc:
-            flight = getattr(exc, "flight", None)
-            failsafe = failsafe_active(v) or (flight is not None and flight.outcome == "failsafe")
-            if base is not None and not isinstance(exc, InputError):
-                safe_stop(v, base, str(self.dir.root), log)
-            if failsafe:
-                await_failsafe(v, log)  # the autopilot's RTL / LAND is never overridden
-            else:
-                end_flight(v, cfg.end, True, log)
-            if failsafe or isinstance(exc, CampaignPaused):
-                self._report_after_stop(v, log)
-                if failsafe:
-                    trial = flight.meta.get("trial") if flight is not None else None
-                    raise CampaignPaused(failsafe_message(v, trial, self.resume_hint)) from None
-            raise
-        finally:
-            v.close()
 
 
 def _flies_nothing(_x: np.ndarray) -> float:

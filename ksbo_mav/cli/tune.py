@@ -5,88 +5,79 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ksbo_mav.cli.common import add_connection_args, endpoint_from_args, positive_int, to_json
+from ksbo_mav.campaign.settings import SETTING
+from ksbo_mav.cli.common import add_connection_args, endpoint_from_args, to_json
 from ksbo_mav.errors import InputError
+from ksbo_mav.opt import METHODS
 
 #: Options that define a campaign; on --resume, one given with a different value than stored is refused.
 _DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen", "rate_hz", "warm_start")
+#: The option groups of `tune --help`, in the order a pilot needs them (connection first: always needed).
+GROUPS = ("connection (exactly one)", "campaign directory", "profile and budget", "end of the campaign",
+          "optimiser", "mission and drift", "help")
+
+
+def _help(name: str, more: str = "") -> str:
+    """An option's help: its setting's line from the declared table (ksbo_mav.campaign.settings), ``more``, and
+    the default where it is a value of its own."""
+    default = SETTING[name].default
+    shown = "" if default is None or isinstance(default, (bool, dict)) else f" (default {default})"
+    return (SETTING[name].help + more + shown).replace("%", "%%")
 
 
 def add_parser(subparsers) -> None:
+    # Types only here: what a value may be is the settings table's, one message whatever gave the value.
     p = subparsers.add_parser(
-        "tune", help="tune a vehicle's gains over MAVLink (safe BO, journalled, restorable)",
-        description="Connects, snapshots every parameter to DIR before any write, takes off if the vehicle is on "
-                    "the ground, flies the baseline gains and then figure-8 trials chosen by safe Bayesian "
-                    "optimisation with kernel selection, restores the baseline gains (unless --accept) and lands "
-                    "(unless --end hold), and writes a report page DIR/report/index.html (verdict, plots, every trial; "
-                    "`ksbo-mav report DIR` rewrites it). Ctrl-C aborts the current trial, restores the baseline and "
-                    "lands. "
-                    "Every option is checked before anything is connected or written; --dry-run prints the "
-                    "flight plan (airspace, flights, batteries) and changes nothing.")
-    p.add_argument("dir", nargs="?", metavar="DIR", help="campaign directory (new)")
-    p.add_argument("--resume", metavar="DIR", help="continue the campaign in DIR (after a crash or battery swap) with "
-                   "its stored settings; refused if its profile now gives another search box or mission")
+        "tune", add_help=False, help="tune a vehicle's gains over MAVLink (safe BO, journalled, restorable)",
+        usage="ksbo-mav tune (DIR | --resume DIR) (--udp | --udp-out | --tcp | --serial ADDRESS) [options]",
+        description="Snapshots every parameter to DIR, flies the baseline gains and then figure-8 trials chosen by "
+                    "safe Bayesian optimisation, restores the baseline gains (unless --accept), lands (unless --end "
+                    "hold) and writes the report DIR/report/index.html. Ctrl-C aborts the trial, restores the "
+                    "baseline and lands. Every option is checked before anything is connected or written; the "
+                    "settings, their defaults and allowed values: docs/settings.md.")
     add_connection_args(p)
-    p.add_argument("--profile", help="vehicle profile (default: from the vehicle's identity)")
-    p.add_argument("--method", help="optimiser: ksbo-adaptive (default: safe BO that learns its safety scale, "
-                                    "treats aborted trials as censored, caps them at max_aborts and re-flies its "
-                                    "best candidates; on profiles whose backup covers the trials it also explores "
-                                    "beyond the certified set), ksbo (the paper's method, no abort cap unless "
-                                    "--option max_aborts=N; on the simulated planar task it aborts fewer trials "
-                                    "but, in MAVLink campaigns on the built-in vehicle from random moving starts, its "
-                                    "recommendations re-fly lower; BENCHMARKS.md), standard, safeopt, ...")
-    p.add_argument("--budget", type=positive_int, help="optimiser trials incl. the baseline (default: the "
-                   "profile's, 10 on the copters, i.e. 12 flights, one pack; 30 elsewhere); the baseline "
-                   "re-flights (--baseline-every), the confirmation and a flown prior's trials come on top: "
-                   "--dry-run prints the total. On the copters 12 flights gave at least 90 %% of a 40-flight "
-                   "campaign's cut in 12 of 12 benchmark campaigns, by the fifth flight (BENCHMARKS.md)")
-    p.add_argument("--seed", type=int, help="optimiser seed (default 0)")
-    p.add_argument("--prior", choices=("auto", "sim", "local", "none"),
-                   help="prior data for kernel selection and the model: simulator episodes in process (sim: the "
-                        "planar simulator, or our JSBSim copter for the ardupilot-copter and px4-copter profiles; "
-                        "the default for those, nothing flown), a local LHS around the baseline flown on the "
-                        "vehicle (local, the default for other profiles), or none")
-    p.add_argument("--n-prior", type=int, metavar="N", help="prior size (default 36 sim / 8 local)")
-    p.add_argument("--option", action="append", metavar="KEY=VALUE",
-                   help="optimiser option (repeatable; VALUE is JSON), e.g. --option max_aborts=4. The copter "
-                        "profiles ([safety] backup_covers_trials) give ksbo-adaptive backup_beta=0.5: it may fly "
-                        "uncertified gains the monitor's backup covers; --option backup_beta=null turns that off. "
-                        "Every option with its default and allowed values: docs/options.md (an unknown KEY prints "
-                        "the list)")
-    p.add_argument("--confirm", type=int, metavar="N", help="re-fly the recommendation N times (default 1)")
-    p.add_argument("--rate", dest="rate_hz", type=int, metavar="HZ",
-                   help="fly the mission at HZ (50, 25, 20 or 10: setpoints with feed-forward and telemetry alike) "
-                        "instead of the profile's rate; without it the link check lowers the rate by itself when "
-                        "the link cannot carry the profile's (docs/links.md)")
-    p.add_argument("--baseline-every", type=int, metavar="N",
-                   help="re-fly the baseline gains after every N trials (optimiser and flown prior) and test "
-                        "whether the vehicle changed (drift): if its tracking at the same gains got clearly "
-                        "worse, land and stop, resumable (default 7; 0: never)")
-    p.add_argument("--on-drift", choices=("stop", "continue"),
-                   help="when the vehicle changed at the baseline gains: stop (default: land, restore the baseline, "
-                        "resumable after a check of the vehicle) or continue, scoring every trial against the "
-                        "baseline as last re-flown, carried along its trend")
-    p.add_argument("--warm-start", metavar="EARLIER", help="start from the finished campaign in EARLIER (same profile "
-                   "or vehicle, same gains): its flights are the prior (no flown prior), its recommendation is "
-                   "re-flown right after the baseline so that the vehicle's condition now is known, and --budget "
-                   "counts from the baseline on")
-    p.add_argument("--widen", action="store_const", const=True, help="when the recommendation ends on a bound of "
-                   "the search box, move that bound out stepwise (never past the gain's documented range) and search "
-                   "on from the recommendation; as the profile's [trust_region] widen = true (docs/profiles.md)")
-    p.add_argument("--accept", action="store_true", help="leave the best gains on the vehicle at the end (not if a "
-                   "confirmation flight of them aborted, crashed or scored P < 0: then the baseline is restored and "
-                   "`ksbo-mav accept DIR --force` writes them anyway)")
-    p.add_argument("--end", choices=("land", "hold"), default="land",
-                   help="after the campaign: land and disarm (default) or hold position where it is")
-    p.add_argument("--dry-run", action="store_true", help="connect, print the plan, change nothing")
-    p.add_argument("--json", action="store_true", help="print the final summary as JSON")
+    g = p.add_argument_group(GROUPS[1])
+    g.add_argument("dir", nargs="?", metavar="DIR", help="a new campaign's directory: snapshot, journal, trial logs, "
+                   "report")
+    g.add_argument("--resume", metavar="DIR", help="continue the campaign in DIR with its stored settings (after a "
+                   "battery swap or a stop); refused if its profile now gives another search box or mission")
+    g = p.add_argument_group(GROUPS[2])
+    g.add_argument("--profile", help=_help("profile"))
+    g.add_argument("--budget", type=int, metavar="N", help=_help("budget", "; --dry-run prints every flight"))
+    g.add_argument("--dry-run", action="store_true", help="connect, print the flight plan (airspace, flights, "
+                   "batteries), change nothing")
+    g = p.add_argument_group(GROUPS[3])
+    g.add_argument("--accept", action="store_true", help=_help("accept", " (`ksbo-mav accept DIR --force` "
+                                                                          "writes them anyway)"))
+    g.add_argument("--end", metavar="{land,hold}", default="land", help=_help("end"))
+    g.add_argument("--json", action="store_true", help="print the final summary as JSON")
+    g = p.add_argument_group(GROUPS[4])
+    g.add_argument("--method", help=_help("method", "; or " + ", ".join(m for m in METHODS
+                                                                            if m != "ksbo-adaptive")))
+    g.add_argument("--seed", type=int, help=_help("seed"))
+    g.add_argument("--option", action="append", metavar="KEY=VALUE",
+                   help="optimiser option, repeatable, VALUE is JSON (e.g. max_aborts=4; backup_beta=null turns the "
+                        "copter profiles' off); every option: docs/options.md")
+    g.add_argument("--prior", metavar="KIND", help=_help("prior"))
+    g.add_argument("--n-prior", type=int, metavar="N", help=_help("n_prior"))
+    g.add_argument("--confirm", type=int, metavar="N", help=_help("confirm"))
+    g.add_argument("--warm-start", metavar="EARLIER", help=_help("warm_start", "; --budget counts from the "
+                                                                                "baseline on"))
+    g.add_argument("--widen", action="store_const", const=True,
+                   help=_help("widen", " (as the profile's [trust_region] widen = true)"))
+    g = p.add_argument_group(GROUPS[5])
+    g.add_argument("--rate", dest="rate_hz", type=int, metavar="HZ", help=_help("rate_hz", "; 50, 25, 20 or 10 "
+                                                                                       "(docs/links.md)"))
+    g.add_argument("--baseline-every", type=int, metavar="N", help=_help("baseline_every"))
+    g.add_argument("--on-drift", metavar="ACTION", help=_help("on_drift"))
+    p.add_argument_group(GROUPS[6]).add_argument("-h", "--help", action="help", help="show this help and exit")
     p.set_defaults(func=run)
 
 
 class Display:
-    """Live progress: one line per trial plus a progress bar (rich)."""
+    """Live progress: one line per trial plus a progress bar (rich) over the budget, once it is settled."""
 
-    def __init__(self, budget: int | None) -> None:
+    def __init__(self, budget: int | None = None) -> None:
         from rich.console import Console
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -94,20 +85,25 @@ class Display:
         self.progress = Progress(TextColumn("[bold]tuning"), BarColumn(), MofNCompleteColumn(),
                                  TextColumn("{task.fields[status]}"), TimeElapsedColumn(), console=self.console,
                                  transient=True)
-        self.task = self.progress.add_task("tune", total=budget, status="")
+        self.task = None if budget is None else self.progress.add_task("tune", total=budget, status="")
+
+    def settled(self, cfg: Any) -> None:
+        """The campaign's settings are decided (the budget may be the vehicle profile's): the bar counts to it."""
+        if self.task is None:
+            self.task = self.progress.add_task("tune", total=cfg.budget, status="")
 
     def log(self, text: str) -> None:
         self.console.print(text, markup=False)
 
-    def update(self, e: Any, budget: int | None = None) -> None:
+    def update(self, e: Any) -> None:
         f = e.flight
         mark = "ok" if f.outcome == "ok" else f"ABORT {f.outcome}"
         # One line of at most 80 columns: P < 0 / aborted by the monitor / crashed / failed (not the gains).
         self.console.print(f"{e.kind:>7} trial {f.meta['trial']:3d}  P {f.P:+.4f} {mark:<12} best {e.best_P:+.4f}  "
                            f"P<0 {e.n_unsafe} abort {e.n_aborted} crash {e.n_crashed} fail {e.n_failed}",
                            highlight=False, markup=False, soft_wrap=True)
-        self.progress.update(self.task, completed=e.n_opt, status=f"best P {e.best_P:+.4f}",
-                             **({"total": budget} if budget else {}))
+        if self.task is not None:
+            self.progress.update(self.task, completed=e.n_opt, status=f"best P {e.best_P:+.4f}")
 
 
 def option_arg(text: str) -> tuple[str, Any]:
@@ -130,6 +126,7 @@ def config_from_args(args: argparse.Namespace):
     has seen may differ."""
     from ksbo_mav.campaign import CampaignConfig, CampaignDir
     from ksbo_mav.campaign.config import resolve
+    from ksbo_mav.campaign.settings import check_setting
 
     given: dict[str, Any] = {k: getattr(args, k) for k in _DEFINING if getattr(args, k) is not None}
     if getattr(args, "option", None):
@@ -138,6 +135,8 @@ def config_from_args(args: argparse.Namespace):
     resumable = {"end": args.end, **({"accept": True} if args.accept else {}),
                  **{k: getattr(args, k) for k in ("sysid", "compid", "baseline_every", "on_drift")
                     if getattr(args, k) is not None}}
+    for name, value in {**given, **resumable}.items():
+        check_setting(name, value)  # before a stored campaign is read: the value's own fault comes first
     if args.resume:
         if args.dir:
             raise InputError("give either DIR (a new campaign) or --resume DIR, not both")
@@ -191,9 +190,9 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = config_from_args(args)
     endpoint = endpoint_from_args(args)
-    display = Display(cfg.budget)
-    camp = Campaign(cfg, endpoint, resume=bool(args.resume), log=display.log,
-                    progress=lambda e: display.update(e, camp.cfg.budget), connect_timeout=args.timeout)
+    display = Display()
+    camp = Campaign(cfg, endpoint, resume=bool(args.resume), log=display.log, progress=display.update,
+                    connect_timeout=args.timeout, on_settled=display.settled)
     if args.dry_run:
         print(camp.dry_run())
         print("dry run: nothing was written to the vehicle or to disk")

@@ -1,6 +1,9 @@
-"""The link check of a campaign: before the baseline is read or anything is armed, measure what the link delivers
-at the mission's stream rates (ksbo_mav.mav.linkcheck), refuse in one line when a trial could not be flown over it,
-and keep the figures in the campaign directory (``link.json``, one entry per start or resume) for the report."""
+"""The mission rate a campaign flies at, set on the vehicle here and only here: the rate
+:func:`ksbo_mav.campaign.config.settle` decided, then the link check: before the baseline is read or anything is
+armed, measure what the link delivers at the mission's stream rates (:mod:`ksbo_mav.mav.linkcheck` does the
+measuring), step a rate nobody asked for down when the link cannot carry it, refuse in one line when a trial could
+not be flown over it, and keep the figures in the campaign directory (``link.json``, one entry per start or
+resume) for the report."""
 
 from __future__ import annotations
 
@@ -8,7 +11,9 @@ import json
 import time
 from collections.abc import Callable
 
+from ksbo_mav.campaign.config import MissionRate
 from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.settings import MISSION_RATES_HZ
 from ksbo_mav.errors import PreflightError, VehicleError
 from ksbo_mav.mav.snapshot import fsync_write
 from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, probe_uplink,
@@ -18,7 +23,7 @@ from ksbo_mav.mav.vehicle import Vehicle
 
 #: Mission rates (Hz) a campaign may step down to when the link cannot carry the profile's: setpoints carry
 #: velocity and acceleration feed-forward, so the autopilot's controller fills in between them (docs/links.md).
-REDUCED_RATES_HZ = (25, 20, 10)
+REDUCED_RATES_HZ = MISSION_RATES_HZ[1:]
 #: A lower rate is taken only when it also arrives nearly whole: more frames lost at it mean the link is full. A
 #: radio loses a few per cent on the air at any rate (the tool's writes are verified up to 10 % loss), so up to 10 %.
 MAX_LOSS_REDUCED = 0.10
@@ -54,6 +59,13 @@ def _uplink_verdict(v: Vehicle, seconds: float) -> str | None:
     return (f"link check: setpoints at {rate} Hz (about {rate * FRAME_BYTES / 1000:.1f} kB/s up) fill the ground "
             f"radio's buffer (down to {free} % free): use a faster radio air rate, or fly a profile with a lower "
             "mission rate (docs/links.md); nothing was written to the vehicle")
+
+
+def fly_at(v: Vehicle, rate: MissionRate, log: Callable[[str], None]) -> LinkFigures:
+    """Set the mission to ``rate`` and check the link carries it (:func:`check_link`; a lowerable rate is stepped
+    down to what it carries)."""
+    v.set_mission_rate(rate.hz)
+    return check_link(v, log, reduce=rate.lowerable)
 
 
 def check_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, reduce: bool = True) -> LinkFigures:
