@@ -7,6 +7,7 @@ confirmation flights of the recommendation. A trial that says nothing about the 
 a slow client) is journalled as ``failed`` and never given to the optimiser; the transient ones are flown again.
 
 Each step lives in its own module: :mod:`~ksbo_mav.campaign.setup` (connect, baseline, snapshot),
+:mod:`~ksbo_mav.campaign.mission_rate` (the mission rate the link carries),
 :mod:`~ksbo_mav.campaign.trials` (the journalled trial loop with retries), :mod:`~ksbo_mav.campaign.search`
 (the optimiser, with the journal replayed on resume), :mod:`~ksbo_mav.campaign.confirm`,
 :mod:`~ksbo_mav.campaign.ending` (restore or accept, land or hold) and :mod:`~ksbo_mav.campaign.result`
@@ -46,6 +47,7 @@ from ksbo_mav.errors import CampaignPaused, InputError, KsboError
 from ksbo_mav.mav.approach import check_moving_start
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.link import Endpoint
+from ksbo_mav.mav.linkcheck import LinkFigures
 from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.mav.objective import MavlinkObjective
 from ksbo_mav.mav.snapshot import load_snapshot
@@ -124,7 +126,7 @@ class Campaign:
             raise
         return v
 
-    def _preflight(self, v: Vehicle) -> Any:
+    def _preflight(self, v: Vehicle) -> LinkFigures:
         """Everything checked before anything is written to the campaign: the mission rate the link carries, the
         baseline gains (a resume restores them), a start the monitor accepts, the options' gain names, a warm
         start's match. Returns the link's figures."""
@@ -137,7 +139,7 @@ class Campaign:
             Earlier(self.cfg.warm_start).check_matches(v)
         return link
 
-    def _record(self, v: Vehicle, link: Any) -> None:
+    def _record(self, v: Vehicle, link: LinkFigures) -> None:
         """A new campaign's snapshot and settings (the directory exists from here on); the link's figures."""
         if not self.resume:
             create_campaign(self.dir, self.cfg, v, self.base, self.log)
