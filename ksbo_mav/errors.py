@@ -40,6 +40,11 @@ class PreflightError(VehicleError):
     """Arming, takeoff or positioning failed: nothing to do with the gains being tuned."""
 
 
+class PilotTookOver(VehicleError):
+    """Between trials the vehicle went to a mode ksbo-mav did not set, or was disarmed (the pilot or a ground
+    station): the campaign stops and leaves the vehicle alone."""
+
+
 class TrialStopped(VehicleError):
     """A trial was aborted for a reason that must stop the campaign (pilot, link, crash of a real vehicle);
     ``flight`` is its recorded result (a :class:`ksbo_mav.objective.Flight`)."""

@@ -79,6 +79,16 @@ def stopping_point(lim: MonitorLimits, p: np.ndarray | float, v: np.ndarray | fl
     return p + v * np.abs(v) / (2.0 * lim.brake_accel)
 
 
+def _past(value: float, limit: float, digits: int) -> str:
+    """``value`` with ``digits`` decimals, or as many more as it takes to differ from ``limit``: a message that
+    reads "tilt 60 deg > 60 deg" hides why it tripped (60.4 > 60)."""
+    for d in range(digits, digits + 7):
+        text = f"{value:.{d}f}"
+        if float(text) != limit:
+            return text
+    return f"{value:.{digits + 6}f}"
+
+
 def check_state(lim: MonitorLimits, north: float, east: float, up: float, tilt_rad: float | None = None,
                 ref: tuple[float, float, float] | None = None,
                 vel: tuple[float, float, float] | None = None) -> tuple[str, str] | None:
@@ -95,19 +105,20 @@ def check_state(lim: MonitorLimits, north: float, east: float, up: float, tilt_r
     stop = "" if v[0] is None or lim.brake_accel is None else " at the stopping point"
     n_, e_, u_ = (float(stopping_point(lim, p, w)) for p, w in zip((north, east, up), v))
     if abs(n_) > lim.x_max:
-        return "fence", f"|north| {abs(n_):.2f} m{stop} > {lim.x_max:g} m"
+        return "fence", f"|north| {_past(abs(n_), lim.x_max, 2)} m{stop} > {lim.x_max:g} m"
     if abs(e_) > lim.y_max:
-        return "fence", f"|east| {abs(e_):.2f} m{stop} > {lim.y_max:g} m"
+        return "fence", f"|east| {_past(abs(e_), lim.y_max, 2)} m{stop} > {lim.y_max:g} m"
     if u_ < lim.z_min or u_ > lim.z_max:
-        return "fence", f"height {u_:.2f} m{stop} outside [{lim.z_min:g}, {lim.z_max:g}] m"
+        bound = lim.z_min if u_ < lim.z_min else lim.z_max
+        return "fence", f"height {_past(u_, bound, 2)} m{stop} outside [{lim.z_min:g}, {lim.z_max:g}] m"
     if tilt_rad is not None:
         tilt = math.degrees(abs(tilt_rad))
         if tilt > lim.tilt_max_deg:
-            return "tilt", f"tilt {tilt:.0f} deg > {lim.tilt_max_deg:g} deg"
+            return "tilt", f"tilt {_past(tilt, lim.tilt_max_deg, 0)} deg > {lim.tilt_max_deg:g} deg"
     if ref is not None:
         err = math.sqrt((north - ref[0]) ** 2 + (east - ref[1]) ** 2 + (up - ref[2]) ** 2)
         if err > lim.tracking_error_max:
-            return "track", f"tracking error {err:.2f} m > {lim.tracking_error_max:g} m"
+            return "track", f"tracking error {_past(err, lim.tracking_error_max, 2)} m > {lim.tracking_error_max:g} m"
     return None
 
 

@@ -34,8 +34,12 @@ def test_a_pack_that_would_not_fit_the_next_trial_lands_and_stops_to_be_resumed(
                                  "--budget", "10"])
         assert rc == 3, err
         last = err.strip().splitlines()[-1]
-        assert last.startswith("stopped: battery: ") and "swap the battery, then `ksbo-mav tune --resume" in last
-        assert "battery: " in err and "% left" in err  # the figures shown with the progress
+        assert last.startswith("stopped: battery: ") and "; then `ksbo-mav tune --resume" in last
+        # a simulated pack (our simulator's SIM_* parameters): the setting that makes it last, not "swap the battery"
+        assert "this is ksbo-mav sim's simulated pack (`--battery MAH`)" in last and "swap the battery" not in last
+        lines = [line for line in err.splitlines() if line.startswith("battery: ")]
+        assert lines and all("% left" in line for line in lines)  # the figures shown with the progress
+        assert len(set(lines)) == len(lines)  # said when they change, not repeated after every trial
         assert fresh_read(sim) == baseline()
     entries = _journal(d)
     assert entries and all(e["kind"] != "failed" for e in entries)
@@ -51,6 +55,7 @@ def test_a_battery_failsafe_in_a_trial_is_an_interrupted_trial_and_resume_comple
         last = err.strip().splitlines()[-1]
         assert last.startswith("stopped: battery: the autopilot's failsafe took over during trial 1")
         assert "recorded as interrupted" in last and "`ksbo-mav tune --resume" in last
+        assert "ksbo-mav sim's simulated pack" in last
         assert "does not override it" in err and "landed and disarmed by the autopilot's failsafe" in err
         assert "\nlanding" not in err  # our LAND never replaced the autopilot's RTL
         assert fresh_read(sim) == baseline()

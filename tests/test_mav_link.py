@@ -27,6 +27,30 @@ def test_endpoint_parsing():
 
 @pytest.mark.network
 @pytest.mark.timeout(30)
+@pytest.mark.parametrize("reuse", [False, True], ids=["plain", "so_reuseaddr"])
+def test_a_port_a_ground_station_listens_on_is_one_line_naming_it_and_the_fix(tmp_path, capsys, reuse):
+    """Another program listening on the UDP port (a ground station; MAVProxy sets SO_REUSEADDR, with which the
+    tool's bind would succeed and the two would split the vehicle's messages): one line naming the port and the
+    router's second output, nothing written."""
+    import socket
+
+    gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    if reuse:
+        gcs.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    gcs.bind(("127.0.0.1", 0))
+    port = gcs.getsockname()[1]
+    try:
+        assert main(["tune", str(tmp_path / "c"), "--udp", f"127.0.0.1:{port}", "--timeout", "1"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "Traceback" not in err
+        assert f"already listening on port {port}" in err and "--udp 127.0.0.1:14551" in err
+        assert not (tmp_path / "c").exists()
+    finally:
+        gcs.close()
+
+
+@pytest.mark.network
+@pytest.mark.timeout(30)
 def test_no_vehicle_is_a_clear_error(tmp_path, capsys):
     port = free_udp_port()
     assert main(["tune", str(tmp_path / "c"), "--udp", f"127.0.0.1:{port}", "--timeout", "1"]) == 2
@@ -36,6 +60,10 @@ def test_no_vehicle_is_a_clear_error(tmp_path, capsys):
     assert main(["tune", "--udp", f"127.0.0.1:{port}"]) == 2  # no DIR
     assert main(["restore", str(tmp_path / "none.json"), "--udp", f"127.0.0.1:{port}"]) == 2
     assert "cannot read snapshot" in capsys.readouterr().err
+    # a directory without a campaign: the message names where a campaign keeps its snapshot
+    assert main(["restore", str(tmp_path), "--udp", f"127.0.0.1:{port}"]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path / 'snapshot' / 'vehicle.json'} (a campaign's)" in err and len(err.strip().splitlines()) == 1
 
 
 @pytest.mark.network

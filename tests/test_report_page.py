@@ -227,15 +227,23 @@ def test_a_crashed_confirmation_is_counted_and_the_verdict_says_not_confirmed(tm
     from ksbo_mav.campaign import Campaign, CampaignConfig
 
     d = tmp_path / "c"
+    roles: dict[int, str] = {}  # what the console called each trial
     with sim_and_endpoint() as (sim, ep):
         cfg = CampaignConfig(dir=str(d), budget=3, seed=1, prior="none", end="hold")
 
         def crash_next(event) -> None:
+            roles[event.flight.meta["trial"]] = event.role
             if event.kind == "opt" and event.n_opt == cfg.budget:
                 _set_on_sim(sim, SIM_CRASH_WRITES=1.0)
 
         summary = Campaign(cfg, ep, log=lambda s: None, progress=crash_next).run()
     assert summary.n_crashed == 1 and summary.plots["safety"] != "none"
+    # The console's name of each trial is the report's (the first optimiser trial is "baseline" in both).
+    from ksbo_mav.campaign.layout import CampaignDir
+    from ksbo_mav.campaign.trial_rows import read_campaign
+
+    rows = read_campaign(CampaignDir.at(d), rms=False).rows
+    assert roles == {r.trial: r.role for r in rows if r.trial in roles} and roles[0] == "baseline"
     verdict = _verdict(_page(d))
     assert "Not confirmed: confirmation trial" in verdict
     assert (f"unsafe (P &lt; 0) {summary.n_unsafe}, aborted by the monitor {summary.n_aborted}, crashed 1, "

@@ -131,3 +131,15 @@ def test_attitude_priority_turns_a_tumbling_trip_into_a_recovered_abort() -> Non
     new = simulate(gains, init, EpisodeConfig(monitor=MonitorConfig()))
     assert old.trip[0] == new.trip[0] == TILT and old.L[0] == new.L[0]  # the same flight up to the same trip
     assert old.outcomes == [Outcome.CRASHED] and new.outcomes == [Outcome.ABORTED]
+
+
+def test_a_limit_message_shows_the_value_past_the_limit() -> None:
+    """Just past a limit, the message shows as many decimals as it takes to read value > limit (never "tilt 60 deg
+    > 60 deg"); far past it, the usual few."""
+    lim = MonitorLimits(x_max=15.0, y_max=8.0, z_min=4.0, z_max=16.0, tilt_max_deg=60.0, tracking_error_max=5.0)
+    assert check_state(lim, 0.0, 0.0, 10.0, math.radians(60.4))[1] == "tilt 60.4 deg > 60 deg"
+    assert check_state(lim, 0.0, 0.0, 10.0, math.radians(60.0004))[1] == "tilt 60.0004 deg > 60 deg"
+    assert check_state(lim, 0.0, 0.0, 10.0, math.radians(71.2))[1] == "tilt 71 deg > 60 deg"
+    assert check_state(lim, 15.001, 0.0, 10.0)[1] == "|north| 15.001 m > 15 m"
+    assert check_state(lim, 0.0, 0.0, 3.9999)[1] == "height 3.9999 m outside [4, 16] m"
+    assert check_state(lim, 0.0, 0.0, 10.0, 0.0, (0.0, 0.0, 15.0031))[1] == "tracking error 5.003 m > 5 m"

@@ -148,6 +148,7 @@ def test_a_finite_battery_stops_the_campaign_safely_and_resume_completes_it(tmp_
         assert r.returncode == 3, r.stderr[-3000:]
         last = r.stderr.strip().splitlines()[-1]
         assert last.startswith("stopped: battery: ") and "`ksbo-mav tune --resume" in last, last
+        assert "this is ArduPilot SITL's simulated pack" in last and "BATT_CAPACITY to 33000" in last, last
         print(last)  # which stop it was (the watch before a trial, or the autopilot's failsafe), for the record
         entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
         assert all(e["outcome"] != "crash" for e in entries)

@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 from ksbo_mav.errors import CampaignPaused, VehicleError
 from ksbo_mav.mav.power import BatteryReading
+from ksbo_mav.mav.simulator import lasting_pack_hint
 from ksbo_mav.mav.vehicle import Vehicle
 
 #: The share of the pack (%) a campaign leaves unflown: below it plus one trial's use, no trial starts.
@@ -31,6 +32,7 @@ class BatteryGuard:
         self.v, self.resume_hint, self.reserve = v, resume_hint, float(reserve_pct)
         self.uses: list[float] = []  # % of the pack per trial
         self._start: BatteryReading | None = None
+        self._said: str | None = None  # the last progress line: a pack that does not change is said once
 
     @property
     def next_use(self) -> float:
@@ -44,20 +46,28 @@ class BatteryGuard:
             return
         if now.remaining_pct - self.next_use < self.reserve:
             need = f"; a trial uses up to {max(self.uses):.0f} %" if self.uses else ""
-            raise CampaignPaused(f"battery: {now.describe()}{need}, the reserve is {self.reserve:.0f} %: swap the "
-                                 f"battery, then `{self.resume_hint}`")
+            sim = lasting_pack_hint({n: p.value for n, p in self.v.params.table.items()})
+            swap = f"{sim}; then" if sim else "swap the battery, then"
+            raise CampaignPaused(f"battery: {now.describe()}{need}, the reserve is {self.reserve:.0f} %: {swap} "
+                                 f"`{self.resume_hint}`")
 
     def after_trial(self) -> str | None:
-        """One progress line (figures, trials left in this pack), or None without battery figures."""
+        """One progress line (figures, trials left in this pack) when it differs from the last one, else None (also
+        without battery figures)."""
         now = self.v.power.reading()
         if self._start is not None and self._start.remaining_pct is not None and now.remaining_pct is not None:
             self.uses.append(max(0.0, self._start.remaining_pct - now.remaining_pct))
         if now.remaining_pct is None:
-            return None if now.voltage_v is None else f"battery: {now.describe()}"
-        use = self.next_use
-        left = "" if not use else f", about {int(max(0.0, now.remaining_pct - self.reserve) // use)} more " \
-                                      "trial(s) in this pack"
-        return f"battery: {now.describe()}{left}"
+            line = None if now.voltage_v is None else f"battery: {now.describe()}"
+        else:
+            use = self.next_use
+            left = "" if not use else f", about {int(max(0.0, now.remaining_pct - self.reserve) // use)} more " \
+                                          "trial(s) in this pack"
+            line = f"battery: {now.describe()}{left}"
+        if line == self._said:
+            return None
+        self._said = line
+        return line
 
 
 def failsafe_active(v: Vehicle) -> bool:
@@ -92,6 +102,7 @@ def failsafe_message(v: Vehicle, trial: int | None, resume_hint: str) -> str:
     said = f" (\"{text}\")" if text else ""
     where = f"during trial {trial}" if trial is not None else "between trials"
     counted = "; the trial is recorded as interrupted, not as the gains' fault" if trial is not None else ""
+    sim = lasting_pack_hint({n: p.value for n, p in v.params.table.items()}) if text else None
+    then = f"{sim}; then " if sim else "swap the battery, then " if text else "check the vehicle, then "
     return (f"{what}: the autopilot's failsafe took over {where}{said}, {v.power.reading().describe()}{counted}; "
-            f"baseline gains restored; " + ("swap the battery, then " if text else "check the vehicle, then ")
-            + f"`{resume_hint}`")
+            f"baseline gains restored; {then}`{resume_hint}`")

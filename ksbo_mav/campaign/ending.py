@@ -8,6 +8,7 @@ from collections.abc import Callable
 from ksbo_mav.campaign.access import write_accepted
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.errors import VehicleError
+from ksbo_mav.mav.pilot import tool_modes
 from ksbo_mav.mav.vehicle import Vehicle
 
 
@@ -44,10 +45,18 @@ def safe_stop(v: Vehicle, base: dict[str, float], where: str, log: Callable[[str
 def end_flight(v: Vehicle, end: str, error: bool, log: Callable[[str], None]) -> str:
     """Leave the vehicle landed and disarmed (``end`` "land", and after any stop below the mission altitude), or
     holding where it is (``end`` "hold"): confirmed by the heartbeat, or said why not. Returns what was done:
-    "landed", "holding", "unknown" (could not tell) or "" (it was not flying)."""
+    "landed", "holding", "unknown" (could not tell), "pilot" (left alone: see below) or "" (it was not flying).
+
+    A vehicle in a mode ksbo-mav never puts it in (ArduPilot LOITER or POSHOLD, PX4 Position: a pilot who took
+    over; RTL or LAND: the autopilot's own action) is not the tool's to fly: it is neither landed nor held."""
     if v.link.closed or not v.armed:
         return ""
     g = v.guided
+    hb = g.heartbeat
+    if hb is not None and int(hb.custom_mode) not in tool_modes(v.stack):
+        log(f"the vehicle is in {v.stack.mode_name(hb.custom_mode)}, a mode ksbo-mav did not set: left to the pilot "
+            "(not landed, not held)")
+        return "pilot"
     low = not g.height() >= 0.9 * float(v.mission.center_up)
     try:
         if end == "land" or (error and low):

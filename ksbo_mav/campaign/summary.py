@@ -6,6 +6,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from ksbo_mav.campaign.journal import Journal
+from ksbo_mav.campaign.trial_rows import trial_role
 from ksbo_mav.objective import Flight
 
 
@@ -15,6 +16,7 @@ class TrialEvent:
 
     kind: str  # journal kind: opt, prior, confirm
     flight: Flight
+    role: str  # what the trial was, as the report's trial table says (baseline, re-flight of trial 6, ...)
     n_opt: int  # optimiser evaluations so far
     best_P: float  # best optimiser P so far (completed trials)
     n_unsafe: int  # P < 0 among optimiser evaluations
@@ -23,10 +25,16 @@ class TrialEvent:
     n_failed: int  # trials that ended for reasons unrelated to the gains
 
     @classmethod
-    def of(cls, kind: str, flight: Flight, journal: Journal) -> "TrialEvent":
+    def of(cls, kind: str, flight: Flight, journal: Journal, x0: Any = None) -> "TrialEvent":
+        """The event of the journal's last trial; ``x0``: the baseline gains (default: the first optimiser
+        trial's, which is the baseline flight)."""
         opt = journal.of("opt")
         ok = [e.P for e in opt if e.outcome == "ok"]
-        return cls(kind=kind, flight=flight, n_opt=len(opt), best_P=max(ok) if ok else float("-inf"),
+        last = journal.entries[-1]
+        before = [e for e in opt if e.trial != last.trial]
+        x0 = x0 if x0 is not None else (opt[0].x if opt else last.x)
+        return cls(kind=kind, flight=flight, role=trial_role(last, x0, before), n_opt=len(opt),
+                   best_P=max(ok) if ok else float("-inf"),
                    n_unsafe=sum(e.P < 0 for e in opt),
                    n_aborted=sum(e.outcome.gain_caused and e.outcome != "crash" for e in journal.entries),
                    n_crashed=sum(e.outcome == "crash" for e in journal.entries), n_failed=len(journal.of("failed")))

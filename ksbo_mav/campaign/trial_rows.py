@@ -111,7 +111,7 @@ def read_campaign(d: CampaignDir, rms: bool = True) -> CampaignRecord:
     rows: list[TrialRow] = []
     flown: list[JournalEntry] = []
     for e in Journal(d.journal).entries:
-        role = _role(e, x0, flown)
+        role = trial_role(e, x0, flown)
         if e.kind == "opt":
             flown.append(e)
         rows.append(TrialRow(e, role, dict(zip(names, (np.asarray(e.x) / scale).tolist())),
@@ -119,7 +119,9 @@ def read_campaign(d: CampaignDir, rms: bool = True) -> CampaignRecord:
     return CampaignRecord(settings, rows, names, scale)
 
 
-def _role(e: JournalEntry, x0: np.ndarray, flown: list[JournalEntry]) -> str:
+def trial_role(e: JournalEntry, x0: np.ndarray, flown: list[JournalEntry]) -> str:
+    """What trial ``e`` was, in words the console and the report share: ``x0`` the baseline gains (optimiser
+    units), ``flown`` the optimiser's trials journalled before it."""
     if e.kind != "opt":
         return ROLE[e.kind]
     if not flown:

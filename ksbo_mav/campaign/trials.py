@@ -73,7 +73,7 @@ class TrialLoop:
                 journal.append(self._entry(kind if f.outcome == "crash" else "failed", f))
             raise
         journal.append(self._entry(kind, f))
-        self.progress(TrialEvent.of(kind, f, journal))
+        self.progress(TrialEvent.of(kind, f, journal, self.x0))
         line = self.guard.after_trial() if self.guard is not None else None
         if line:
             self.log(line)

@@ -263,14 +263,13 @@ class Guided:
             self.wait(1.0)
 
     def ensure_airborne(self, alt: float, start: np.ndarray, tol: float, settle_s: float = 2.0,
-                        log: Callable[[str], None] = lambda s: None) -> None:
-        """Armed in guided/offboard, hovering at ``start`` (NED; within ``tol`` m, then ``settle_s`` s of vehicle
-        time holding there); arms and takes off from the ground if needed.
-
-        An armed vehicle in a mode that is neither guided nor hold is the pilot's: the tuner refuses.
-        :class:`PreflightError` for any failure here (it is never the gains' fault).
-        """
+                        log: Callable[[str], None] = lambda s: None,
+                        check: Callable[[Any], None] = lambda hb: None) -> None:
+        """Armed in guided/offboard, hovering at ``start`` (NED; within ``tol`` m, then ``settle_s`` s of vehicle time
+        there), taking off if needed; an armed vehicle in a mode neither guided nor hold is refused: PreflightError
+        (never the gains' fault). ``check(hb)`` may refuse first and, on the newest heartbeat, before guided."""
         hb = self.link.wait_heartbeat(self.heartbeat_timeout)
+        check(hb)
         mine = (self.stack.modes["guided"], self.stack.modes["hold"])
         if hb.base_mode & 128 and int(hb.custom_mode) not in mine:
             raise PreflightError(f"vehicle is armed in mode {self.stack.mode_name(hb.custom_mode)}; switch it to "
@@ -279,6 +278,7 @@ class Guided:
             self.takeoff(alt, log)
         self.hold_at(start)
         if not self.in_mode("guided"):
+            check(self.heartbeat)
             self.enter("guided")
         if not self.wait(60.0, lambda: self._near(start, tol)):
             raise PreflightError(f"the vehicle did not come within {tol:g} m of the figure-8 start in 60 s "

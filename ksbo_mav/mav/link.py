@@ -89,6 +89,30 @@ def parse_endpoint(udp: str | None = None, udpout: str | None = None, tcp: str |
     return Endpoint(kind, host, port)
 
 
+def _refuse_a_taken_port(endpoint: Endpoint) -> None:
+    """VehicleError, one line naming the port and the fix, when another program already listens on the UDP port.
+
+    pymavlink binds with SO_REUSEADDR, so beside a ground station that set it too (MAVProxy does) the bind would
+    succeed and the kernel would hand each datagram to one of the two programs: both would lose messages without
+    a word. A probe bound without SO_REUSEADDR fails whenever anyone holds the port, whatever they set."""
+    import errno
+    import socket
+
+    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        probe.bind((endpoint.host, endpoint.port))
+    except OSError as exc:
+        if exc.errno != errno.EADDRINUSE:
+            return  # a host that does not resolve or is not ours: pymavlink's own error below says so
+        raise VehicleError(
+            f"cannot listen on UDP {endpoint.host}:{endpoint.port}: another program (a ground station?) is already "
+            f"listening on port {endpoint.port}; give ksbo-mav its own port, e.g. a second output of MAVProxy or "
+            f"mavlink-router to 127.0.0.1:14551 and --udp 127.0.0.1:14551 (docs/flight-checklist.md, "
+            f"\"Sharing the link with a ground station\")") from None
+    finally:
+        probe.close()
+
+
 class Link:
     """A MAVLink 2 connection to one vehicle (the first non-GCS heartbeat we hear, or ``target_system``)."""
 
@@ -97,6 +121,8 @@ class Link:
         if not (1 <= sysid <= 255 and 1 <= compid <= 255):
             raise InputError("--sysid and --compid must be in 1..255")
         self.endpoint = endpoint
+        if endpoint.kind == "udp":
+            _refuse_a_taken_port(endpoint)
         try:
             # pymavlink prints "[Errno 111] Connection refused sleeping" to stdout on every TCP retry; our one-line
             # error below says it all.

@@ -9,6 +9,7 @@ depends on the cause.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -40,11 +41,13 @@ def limits_from_profile(profile: Profile, overrides: dict[str, float] | None = N
 
 
 class Monitor:
-    """Checks samples against :class:`Limits`; ``guided_mode`` is the custom_mode the trial runs in."""
+    """Checks samples against :class:`Limits`; ``guided_mode`` is the custom_mode the trial runs in, ``mode_name``
+    names a custom_mode for the user (:meth:`ksbo_mav.mav.stacks.Stack.mode_name`)."""
 
-    def __init__(self, limits: Limits, guided_mode: int) -> None:
+    def __init__(self, limits: Limits, guided_mode: int, mode_name: Callable[[int], str] = str) -> None:
         self.limits = limits
         self.guided_mode = guided_mode
+        self.mode_name = mode_name
 
     def check_sample(self, lpn: Any, att: Any | None, ref_ned: np.ndarray | None) -> tuple[str, str] | None:
         """Position/attitude/tracking checks on one LOCAL_POSITION_NED (+ latest ATTITUDE, + the reference sent
@@ -69,5 +72,6 @@ class Monitor:
             return TrialOutcome.FAILSAFE, f"the autopilot's failsafe took over (system_status {hb.system_status}, " \
                 f"custom mode {hb.custom_mode})"
         if hb.custom_mode != self.guided_mode:
-            return TrialOutcome.PILOT, f"mode changed to {hb.custom_mode} by someone else"
+            return TrialOutcome.PILOT, f"mode changed to {self.mode_name(hb.custom_mode)} by the pilot or a " \
+                "ground station"
         return None

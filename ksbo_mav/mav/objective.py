@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ksbo_mav.errors import PreflightError, TrialInterrupted, TrialStopped, VehicleError
+from ksbo_mav.errors import PilotTookOver, PreflightError, TrialInterrupted, TrialStopped, VehicleError
 from ksbo_mav.mav.approach import Approach, check_moving_start, start_velocity, stress_velocity
 from ksbo_mav.mav.monitor import Monitor, limits_from_profile
 from ksbo_mav.mav.outcome import TrialOutcome as T
@@ -62,7 +62,8 @@ class MavlinkObjective:
         self.baseline_gains = vehicle.gain_map.from_params(baseline_params)
         self.out_dir = Path(out_dir)
         self.mission = vehicle.mission
-        self.monitor = Monitor(limits_from_profile(self.profile, safety), vehicle.stack.modes["guided"])
+        self.monitor = Monitor(limits_from_profile(self.profile, safety), vehicle.stack.modes["guided"],
+                               vehicle.stack.mode_name)
         check_moving_start(self.mission, self.monitor.limits)
         self.trial_flight = TrialFlight(vehicle, self.monitor, baseline_params, settle_s=settle_s,
                                         link_wait_s=link_wait_s, log=log)
@@ -89,7 +90,7 @@ class MavlinkObjective:
         approach = Approach(m.start_ned(), u, m.dt)
         try:
             v.ensure_airborne(self.log, at=approach.begin)
-        except PreflightError:
+        except (PreflightError, PilotTookOver):
             raise
         except VehicleError as exc:  # link trouble while getting ready is not the gains' fault either
             raise PreflightError(str(exc)) from None

@@ -107,7 +107,12 @@ def load_snapshot(path: str | Path) -> Snapshot:
     """Load ``X.json`` (or a campaign directory holding ``snapshot/vehicle.json``); clear errors otherwise."""
     p = Path(path)
     if p.is_dir():
-        p = p / "snapshot" / "vehicle.json" if (p / "snapshot" / "vehicle.json").exists() else p / "vehicle.json"
+        found = [f for f in (p / "snapshot" / "vehicle.json", p / "vehicle.json") if f.exists()]
+        if not found:
+            raise InputError(f"{p} holds no snapshot: neither {p / 'snapshot' / 'vehicle.json'} (a campaign's) nor "
+                             f"{p / 'vehicle.json'}; give the campaign directory `ksbo-mav tune` wrote, or its "
+                             "snapshot/vehicle.json")
+        p = found[0]
     elif p.suffix in (".param", ".params"):
         p = p.with_suffix(".json")
     try:

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.errors import InputError, VehicleError
+from ksbo_mav.errors import InputError, PilotTookOver, VehicleError
 from ksbo_mav.mav.commands import Commander
 from ksbo_mav.mav.gains import GainService
 from ksbo_mav.mav.guided import Guided
@@ -27,6 +27,7 @@ from ksbo_mav.mav.link import Endpoint, Link
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.param_ftp import CAPABILITY_FTP
 from ksbo_mav.mav.params import ParamClient
+from ksbo_mav.mav.pilot import taken_over
 from ksbo_mav.mav.power import PowerWatch
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
 from ksbo_mav.mav.telemetry import Telemetry
@@ -48,6 +49,8 @@ class Vehicle:
         self.telemetry = Telemetry(link, cmd, self.mission.rate_hz)
         self.guided = Guided(link, cmd, stack, self.telemetry, self.heartbeat_timeout, self.lockstep)
         self.power = PowerWatch(link)  # battery figures and the vehicle's STATUSTEXTs
+        #: Airborne in guided by us since our last landing: a later mode change or disarm is not ours to undo.
+        self.had_control = False
 
     # --- preflight -----------------------------------------------------------------------------------------
     @classmethod
@@ -129,14 +132,22 @@ class Vehicle:
 
     def ensure_airborne(self, log: Callable[[str], None] = lambda s: None, at: np.ndarray | None = None) -> None:
         """Hovering at the figure-8 start (or ``at``, NED: a moving start's approach) in guided/offboard (takes off
-        from the ground if needed)."""
+        from the ground if needed). Once the vehicle has been ours, a mode the tuner did not leave it in or a
+        disarmed vehicle is the pilot's (or a ground station's) doing: :class:`PilotTookOver`, nothing commanded."""
         m = self.mission
         # Start tolerance: 5 % of the figure-8's size (0.5 m for the 20 m copter pattern, 4 cm for the planar one).
         self.guided.ensure_airborne(float(m.center_up), m.start_ned() if at is None else np.asarray(at, float),
-                                    tol=max(0.03, 0.05 * m.scale), log=log)
+                                    tol=max(0.03, 0.05 * m.scale), log=log, check=self._still_ours)
+        self.had_control = True
+
+    def _still_ours(self, hb: Any) -> None:
+        why = taken_over(self.stack, hb) if self.had_control else None
+        if why:
+            raise PilotTookOver(why)
 
     def land(self, timeout_s: float = 120.0) -> None:
         self.guided.land(timeout_s)
+        self.had_control = False  # landed by us: the next takeoff is ours too
 
     def statustext(self, text: str, severity: int = 6) -> None:
         """Tell the vehicle / other ground stations (and the tlog) what the tuner is doing."""
