@@ -1,7 +1,7 @@
 """Exception types that the CLI turns into one-line messages and a non-zero exit code.
 
 This module imports nothing of the package (every layer, the optimiser core included, raises these); the
-simulator's own errors (:mod:`ksbo_sim.errors`) are printed the same way by the CLI.
+simulator's own errors (``ksbo_sim.errors``) are turned into these by the commands that run a simulator.
 """
 
 from typing import Any
@@ -47,7 +47,7 @@ class PilotTookOver(VehicleError):
 
 class TrialStopped(VehicleError):
     """A trial was aborted for a reason that must stop the campaign (pilot, link, crash of a real vehicle);
-    ``flight`` is its recorded result (a :class:`ksbo_mav.objective.Flight`)."""
+    ``flight`` is its recorded result (a :class:`ksbo_task.flight.Flight`)."""
 
     def __init__(self, message: str, flight: Any) -> None:
         super().__init__(message)
@@ -56,7 +56,7 @@ class TrialStopped(VehicleError):
 
 class TrialInterrupted(KeyboardInterrupt):
     """Ctrl-C during a trial, raised once the trial is recorded (its baseline restored unless a second Ctrl-C
-    stopped that); ``flight`` is its recorded result (a :class:`ksbo_mav.objective.Flight`). A KeyboardInterrupt:
+    stopped that); ``flight`` is its recorded result (a :class:`ksbo_task.flight.Flight`). A KeyboardInterrupt:
     whatever stops on Ctrl-C stops here."""
 
     def __init__(self, flight: Any) -> None:

@@ -39,7 +39,7 @@ def plot_trajectories(trajectories: Sequence, labels: Sequence[str], path: str |
     """Reference vs flown path in the mission's plane, and the tracking errors over time, for one or more flights.
 
     Like the paper's figure comparing the initial and the tuned controller. ``trajectories`` are
-    :class:`ksbo_mav.objective.Trajectory` objects of one mission ``kind`` (``figure8-xz``: the vertical planar
+    :class:`ksbo_task.flight.Trajectory` objects of one mission ``kind`` (``figure8-xz``: the vertical planar
     figure-8, drawn north / up; ``figure8-ne``: the copters' horizontal one, drawn as a map, east / north, with the
     altitude error); each is drawn against its own reference. ``scored``: the scored lap's time span (s), shaded;
     default the second half of the first flight.

@@ -95,7 +95,7 @@ class TrustRegion:
 class MissionSpec:
     """``[mission]``: the figure-8 flown in every trial (``figure8-xz``: planar x-z; ``figure8-ne``: horizontal,
     north = scale_m sin wt, east = scale_east_m sin 2wt at center_up_m). ``lead_in_s`` (figure8-ne only) starts the
-    pattern from rest over that many seconds (:mod:`ksbo_sim.lead_in`) instead of with a velocity step.
+    pattern from rest over that many seconds (:mod:`ksbo_task.lead_in`) instead of with a velocity step.
     ``start_speed_mps`` (figure8-xz only) starts each trial moving: the vehicle passes the figure-8 start at a random
     velocity of up to that speed, as the paper's task starts its episodes (:mod:`ksbo_mav.mav.approach`); 0 starts
     from hover."""

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ksbo_mav.errors import InputError
+from ksbo_task.flight import Trajectory
 
 
 def _default_q() -> tuple[float, ...]:
@@ -139,6 +140,11 @@ def score(states: np.ndarray, refs: np.ndarray, steps: np.ndarray, L: np.ndarray
 
 
 def score_rollout(rollout, config: ScoreConfig = ScoreConfig()) -> Score:
-    """Score a :class:`ksbo_sim.Rollout` (state after step k vs X_GOAL[k+1], input of step k)."""
+    """Score a :class:`ksbo_sim.episode.Rollout` (state after step k vs X_GOAL[k+1], input of step k)."""
     n = rollout.inputs.shape[1]
     return score(rollout.states[:, 1:], rollout.refs[1:], np.arange(n), rollout.L, rollout.inputs, config)
+
+
+def score_trajectory(traj: Trajectory, config: ScoreConfig = ScoreConfig()) -> Score:
+    """Score one :class:`ksbo_task.flight.Trajectory` (from the simulator, a vehicle's telemetry or a log)."""
+    return score(traj.states, traj.refs, traj.steps, traj.L, traj.inputs, config)

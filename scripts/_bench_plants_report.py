@@ -52,8 +52,8 @@ def best_known(recs: list[dict]) -> dict[str, tuple[float, str]]:
     references flown here — the nominal oracle gains and the end points of the safe climbs (:func:`climb_ends`)
     (planar) or the baseline with the horizontal position P gain (and the velocity P gain) at the top of the search
     box (copter; the issue's "PSC_POSXY_P 1.75 + PSC_VELXY_P 3.5" and "MPC_XY_P 1.9 alone")."""
-    from ksbo_mav.copter_objective import COPTER_PLANTS, CopterObjective
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.copter_objective import COPTER_PLANTS, CopterObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
 
     best: dict[str, tuple[float, str]] = {}
     frozen = frozen_best()

@@ -107,9 +107,9 @@ def make_prior(setting: str, seed: int, prof, obj, args) -> tuple[np.ndarray, np
 
 def refly(obj, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Re-fly gains X (n, 9) over the 8 fixed initial conditions: E[P], mean J^Q, crashed re-flights (each (n,))."""
-    from ksbo_sim.episode import fixed_initial_states
+    from ksbo_task.starts import fixed_initial_states
 
-    inits = fixed_initial_states(config=obj.episode)
+    inits = fixed_initial_states(figure8=obj.episode.figure8)
     n, m = X.shape[0], inits.shape[0]
     s = obj.scores(np.repeat(X, m, axis=0), np.tile(inits, (n, 1)))
     P = s.P.reshape(n, m)
@@ -125,7 +125,7 @@ def run_one(setting: str, method: str, seed: int, args_d: dict) -> dict:
 
     import ksbo_mav  # loads scipy's BLAS: threadpool_limits pins only libraries already loaded
     from ksbo_mav.jsonio import jsonable
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
     from ksbo_mav.profiles import load_profile
 
     threadpool_limits(1)

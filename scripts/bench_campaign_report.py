@@ -150,16 +150,16 @@ def trajectory_figure(runs: dict[str, list[dict]], fig_dir: Path = FIG) -> str |
     """Initial (a0) vs tuned (median-E ksbo run of the vehicle setting) trajectory on the first fixed init."""
     if "ksbo" not in runs:
         return None
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
     from ksbo_mav.plotting import plot_trajectories
     from ksbo_mav.profiles import load_profile
-    from ksbo_sim.episode import fixed_initial_states
+    from ksbo_task.starts import fixed_initial_states
 
     rs = sorted(runs["ksbo"], key=lambda r: r["E"])
     r = rs[len(rs) // 2]
     prof = load_profile("sim-planar")
     obj = SimObjective(prof, seed=0)
-    init = fixed_initial_states(config=obj.episode)[0]
+    init = fixed_initial_states(figure8=obj.episode.figure8)[0]
     f0 = obj.fly(prof.default, init=init)
     f1 = obj.fly(np.asarray(r["x"]), init=init)
     p = fig_dir / "campaign_trajectory.png"

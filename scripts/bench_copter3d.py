@@ -24,8 +24,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _bench_common import machine, write_result  # noqa: E402
 
-from ksbo_sim.copter3d import Copter3D, Figure8H, fly  # noqa: E402
+from ksbo_sim.copter3d import Copter3D, fly  # noqa: E402
 from ksbo_sim.copter3d.mission import tracking_rms  # noqa: E402
+from ksbo_task.figure8_ne import Figure8H  # noqa: E402
 
 #: (parameter, value, SITL lap-2 RMS on the affected axis from the fact sheet, axis index) for the x-z variant.
 SITL_XZ = [

@@ -40,7 +40,8 @@ from _bench_common import machine, refly_in_turn, sim_and_endpoint  # noqa: E402
 
 from ksbo_mav.cli import main  # noqa: E402
 from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
-from ksbo_sim.copter3d import Copter3D, Figure8H, fly  # noqa: E402
+from ksbo_sim.copter3d import Copter3D, fly  # noqa: E402
+from ksbo_task.figure8_ne import Figure8H  # noqa: E402
 
 SIM = ["--vehicle", "copter3d", "--personality", "ardupilot"]
 TAKEOFF_S = 10.0  # flight time before trial 0's first sample (the climb to the mission's start)

@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _bench_common import machine, write_result  # noqa: E402
 
 from ksbo_mav.gp import AdditiveKernel, GaussianProcess  # noqa: E402
-from ksbo_mav.objective import SimObjective  # noqa: E402
+from ksbo_mav.simulated.planar_objective import SimObjective  # noqa: E402
 from ksbo_mav.profiles import load_profile  # noqa: E402
 from ksbo_mav.select import (  # noqa: E402
     cree_exact, lhs_design, order_kernel_matrices, select_dimensions_for_orders, select_orders,

@@ -57,11 +57,12 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     from threadpoolctl import threadpool_limits
 
-    from ksbo_mav.objective import SimObjective  # loads scipy's BLAS: the limit pins only loaded libraries
+    # loads scipy's BLAS: the limit pins only loaded libraries
+    from ksbo_mav.simulated.planar_objective import SimObjective
     from ksbo_mav.profiles import load_profile
 
     threadpool_limits(1)
-    from ksbo_sim.episode import random_initial_states
+    from ksbo_task.starts import random_initial_states
 
     t0 = time.time()
     prof = load_profile("sim-planar")
@@ -101,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         D = rng.standard_normal((n, u.size))
         D /= np.linalg.norm(D, axis=1, keepdims=True)
         N = np.clip(u + r * rng.random((n, 1)) ** (1 / u.size) * D, 0, 1)
-        s = obj.scores(prof.from_unit(N), random_initial_states(n, rng, obj.episode))
+        s = obj.scores(prof.from_unit(N), random_initial_states(n, rng, obj.episode.figure8))
         return bool(np.all(s.P >= 0))
 
     lines += ["", "**Robust optimum** — best E[P] whose 0.03-ball showed no crashing episode in 64 random "

@@ -56,8 +56,8 @@ def _opt(items: list[str]) -> dict[str, Any]:
 
 def _objective(plant: str, seed: int, monitor: bool) -> tuple[Any, np.ndarray, np.ndarray]:
     """(objective, x0 (d,), bounds (d, 2)) of a suite plant: planar (ksbo_sim.plants) or JSBSim copter."""
-    from ksbo_mav.copter_objective import COPTER_PLANTS, CopterObjective
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.copter_objective import COPTER_PLANTS, CopterObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
 
     if plant in COPTER_PLANTS:
         obj = CopterObjective(plant)  # always monitored (the profile's [safety] limits); deterministic

@@ -20,11 +20,12 @@ from threadpoolctl import threadpool_limits
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _bench_common import machine, write_result  # noqa: E402
 
-from ksbo_mav.objective import SimObjective  # noqa: E402
+from ksbo_mav.simulated.planar_objective import SimObjective  # noqa: E402
 from ksbo_mav.profiles import load_profile  # noqa: E402
 from ksbo_mav.scoring import score_rollout  # noqa: E402
-from ksbo_sim import random_initial_states, simulate  # noqa: E402
+from ksbo_sim import simulate  # noqa: E402
 from ksbo_sim.scalar import simulate_one, simulate_parallel  # noqa: E402
+from ksbo_task.starts import random_initial_states  # noqa: E402
 
 
 def best_of(fn, repeats: int) -> float:

@@ -29,7 +29,7 @@ from _bench_common import machine, write_result  # noqa: E402
 
 def run_one(seed: int, budget: int, out: Path, method: str, options: dict | None = None) -> dict:
     from ksbo_mav.mav.link import Endpoint
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
     from ksbo_mav.profiles import load_profile
     from ksbo_mav.campaign import Campaign, CampaignConfig
     from ksbo_sim.process import free_udp_port

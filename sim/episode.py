@@ -14,13 +14,10 @@ import numpy as np
 
 from ksbo_sim.constants import SCG_CRAZYFLIE, QuadConstants
 from ksbo_sim.dynamics import integrate
-from ksbo_sim.figure8 import Figure8
-from ksbo_sim.monitor import NO_TRIP, MonitorLimits, Outcome, planar_monitor_limits, trip_codes
 from ksbo_sim.pid import PlanarPID
 from ksbo_sim.plants import ActuatorState, Plant
-
-#: Seed of the fixed initial conditions used for the honest "re-flown" expected score.
-FIXED_INIT_SEED = 20240611
+from ksbo_task.figure8 import Figure8
+from ksbo_task.monitor import NO_TRIP, MonitorLimits, Outcome, planar_monitor_limits, trip_codes
 
 #: Crash codes stored in :attr:`Rollout.reason`.
 OK, OUT_X, GROUND, CEILING, TILT = 0, 1, 2, 3, 4
@@ -57,7 +54,7 @@ class MonitorConfig:
     """In-flight monitor and backup: on a trip the flight switches to ``backup`` gains holding ``hold``.
 
     Attributes:
-        limits: trip thresholds (:func:`ksbo_sim.monitor.trip_codes`).
+        limits: trip thresholds (:func:`ksbo_task.monitor.trip_codes`).
         backup: (9,) backup gains (the baseline a0 by default).
         hold: (x, z) point the backup holds.
         recover_steps: control steps the backup must stay inside the environment bounds for the flight to count
@@ -122,7 +119,7 @@ class Rollout:
         inputs: (B, N, 2) thrusts applied during step k; NaN after an early stop.
         L: (B,) control steps of the mission flown (up to the crash or the monitor's trip).
         reason: (B,) crash code (see ``REASONS``), 0 for a completed episode or a recovered abort.
-        trip: (B,) monitor trip code (``ksbo_sim.monitor``; 0 = no trip) or None without a monitor.
+        trip: (B,) monitor trip code (``ksbo_task.monitor``; 0 = no trip) or None without a monitor.
     """
 
     t: np.ndarray
@@ -143,53 +140,6 @@ class Rollout:
     @property
     def L_expected(self) -> int:
         return self.inputs.shape[1]
-
-
-def random_initial_states(n: int, rng: np.random.Generator, config: EpisodeConfig | None = None,
-                          v_max: float = 1.0) -> np.ndarray:
-    """(n, 6) initial states at the figure-8 origin with a random velocity v0 (cos phi, sin phi).
-
-    v0 ~ U(0, v_max) m/s and phi ~ U(0, 2 pi), pitch and pitch rate 0 (fact sheet part C).
-    """
-    config = config or EpisodeConfig()
-    origin = config.figure8.position(0.0)
-    v0 = rng.uniform(0.0, v_max, n)
-    phi = rng.uniform(0.0, 2.0 * math.pi, n)
-    s = np.zeros((n, 6))
-    s[:, 0], s[:, 2] = origin[0], origin[1]
-    s[:, 1], s[:, 3] = v0 * np.cos(phi), v0 * np.sin(phi)
-    return s
-
-
-#: Speed of :func:`stress_initial_state` as a fraction of the start speed cap. Over 348 recommendations of the
-#: nominal tuning seeds (benchmarks/notes/plants.md) a start at 0.9 m/s against the path fails 66 of the 74
-#: that fail from more than 2 % of 400 random starts and none of the 224 that fail from none; at the full 1 m/s
-#: it also fails 8 of those 224.
-STRESS_FRACTION = 0.9
-
-
-def stress_initial_state(config: EpisodeConfig | None = None, v_max: float = 1.0) -> np.ndarray:
-    """(6,) a start near the hardest the random draws can give, as a stress test of gains: at the figure-8 origin,
-    at :data:`STRESS_FRACTION` of the start speed cap ``v_max``, against the reference's initial horizontal
-    direction.
-
-    The horizontal axis is the one the gains steer through the pitch loop (the vertical one has thrust directly),
-    and a start against the path makes the largest initial error rate there: over the 200 planar recommendations of
-    the plant suite (benchmarks/notes/plants.md) flown from 1 m/s starts every 15°, the starts that fail are those
-    against the path in x (75°–180° and −180° to −60° from +x, most at ±150–180°; none within 45° of +x).
-    """
-    config = config or EpisodeConfig()
-    origin = config.figure8.position(0.0)
-    vx_ref = float(config.figure8.velocity(0.0)[0])
-    s = np.zeros(6)
-    s[0], s[2] = origin[0], origin[1]
-    s[1] = -math.copysign(STRESS_FRACTION * v_max, vx_ref)
-    return s
-
-
-def fixed_initial_states(n: int = 8, seed: int = FIXED_INIT_SEED, config: EpisodeConfig | None = None) -> np.ndarray:
-    """The fixed initial conditions of the re-flown expected score (8 by default, seed 20240611)."""
-    return random_initial_states(n, np.random.default_rng(seed), config)
 
 
 def simulate(gains: np.ndarray, init: np.ndarray, config: EpisodeConfig | None = None) -> Rollout:

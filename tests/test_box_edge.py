@@ -78,7 +78,7 @@ def test_safe_bo_ends_on_the_edge_of_a_box_that_excludes_the_optimum(upper, at_e
     that optimum: the recommendation ends on the edge and the note says the improvement may continue; a box to 0.6
     contains it: no note."""
     from ksbo_mav import optimize
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
     from ksbo_mav.profiles import load_profile
 
     profile = load_profile("sim-planar")

@@ -17,7 +17,7 @@ from ksbo_mav.mav.trajectory import end_text, start_text
 from ksbo_mav.mav.wire import mavlink, mavutil
 from ksbo_mav.profiles import load_profile
 from ksbo_mav.scoring import score
-from ksbo_sim.figure8 import Figure8
+from ksbo_task.figure8 import Figure8
 
 T0, DT = 10_000, 20
 OFFSET = np.array([0.03, 0.0, -0.02, 0.0, 0.01, 0.0])  # flown = reference + offset (planar x, vx, z, vz, th, om)

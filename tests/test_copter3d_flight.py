@@ -5,9 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from ksbo_sim.copter3d import Copter3D, Figure8H, fly
+from ksbo_sim.copter3d import Copter3D, fly
 from ksbo_sim.copter3d.vehicle import FENCE_HOR, GROUND
 from ksbo_sim.vehicle import Setpoint, VehicleModel
+from ksbo_task.figure8_ne import Figure8H
 
 
 @pytest.fixture(scope="module")

@@ -15,8 +15,9 @@ import pytest
 
 from ksbo_sim.testing import GUIDED, MASK_POS, running_sim
 
-from ksbo_sim.copter3d import Copter3D, Figure8H, fly
+from ksbo_sim.copter3d import Copter3D, fly
 from ksbo_sim.copter3d.mission import tracking_rms
+from ksbo_task.figure8_ne import Figure8H
 
 pytestmark = [pytest.mark.network, pytest.mark.timeout(120)]
 

@@ -9,9 +9,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from ksbo_mav.copter_objective import COPTER_PLANTS, CopterObjective
 from ksbo_mav.mav.gains import trust_region
 from ksbo_mav.opt.outcome import Outcome
+from ksbo_mav.simulated.copter_objective import COPTER_PLANTS, CopterObjective
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +35,8 @@ def test_search_box_is_the_campaigns_trust_region(px4) -> None:
 
 
 def test_the_lead_in_removes_the_start_transient_that_tripped_the_tilt_limit(px4) -> None:
-    from ksbo_sim.copter3d import Figure8H, fly
+    from ksbo_sim.copter3d import fly
+    from ksbo_task.figure8_ne import Figure8H
 
     top = px4.bounds[:, 1]  # every gain at the top of the box
     assert px4.figure.lead_in == px4.profile.mission_spec.lead_in_s > 0

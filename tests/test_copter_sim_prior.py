@@ -9,9 +9,9 @@ import numpy as np
 
 from ksbo_mav.campaign import CampaignConfig, CampaignDir
 from ksbo_mav.campaign.prior import campaign_prior
-from ksbo_mav.copter_objective import CopterObjective
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.profiles import load_profile
+from ksbo_mav.simulated.copter_objective import CopterObjective
 
 
 def test_copter_prior_is_simulated_on_the_jsbsim_copter_and_kept(tmp_path) -> None:

@@ -1,5 +1,5 @@
-"""Dependencies point one way: ``ksbo_mav`` may import ``ksbo_sim``, never the reverse; scripts import no test
-helpers."""
+"""Dependencies point one way: ``ksbo_mav`` may import ``ksbo_sim``, never the reverse, and the MAVLink client and
+the campaign load no simulator; scripts import no test helpers."""
 
 from __future__ import annotations
 
@@ -29,6 +29,33 @@ def test_importing_ksbo_sim_does_not_import_ksbo_mav():
     n, _, bad = out.stdout.strip().partition(" ")
     assert int(n) > 10  # every module of the package was imported, not just its __init__
     assert bad == "", f"ksbo_sim pulled in {bad}"
+
+
+CLIENT_WITHOUT_SIMULATOR = """
+import importlib, pkgutil, sys
+import ksbo_mav.campaign
+names = ["ksbo_mav.mav.vehicle", "ksbo_mav.campaign"] + [
+    m.name for m in pkgutil.walk_packages(ksbo_mav.campaign.__path__, "ksbo_mav.campaign.")]
+simulator = lambda m: m.split(".")[0] in ("jsbsim", "ksbo_sim")
+for name in names:
+    importlib.import_module(name)
+    loaded = sorted(m for m in sys.modules if simulator(m))
+    if loaded:
+        print(len(names), name, "loaded", " ".join(loaded))
+        break
+else:
+    print(len(names))
+"""
+
+
+def test_the_mavlink_client_and_the_campaign_load_no_simulator():
+    # A fresh interpreter, each module in turn: the first one after which JSBSim or ksbo_sim is loaded is named.
+    out = subprocess.run([sys.executable, "-c", CLIENT_WITHOUT_SIMULATOR], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    n, _, offender = out.stdout.strip().partition(" ")
+    assert int(n) > 10  # every campaign module was imported, not just the package
+    assert offender == "", f"importing {offender}"
 
 
 def _imported_modules(path: Path) -> set[str]:

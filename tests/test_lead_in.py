@@ -1,4 +1,4 @@
-"""The figure-8 lead-in (ksbo_sim.lead_in): the 3-D mission starts from rest and joins the pattern smoothly, and
+"""The figure-8 lead-in (ksbo_task.lead_in): the 3-D mission starts from rest and joins the pattern smoothly, and
 the MAVLink mission, the in-process copter and the flight-log reference fly the same reference."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from ksbo_mav.errors import InputError
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.profile_sections import MissionSpec
 from ksbo_mav.profiles import load_profile
-from ksbo_sim.copter3d import Figure8H
-from ksbo_sim.lead_in import lead_in_phase
+from ksbo_task.figure8_ne import Figure8H
+from ksbo_task.lead_in import lead_in_phase
 
 
 def test_phase_starts_from_rest_and_joins_the_pattern_half_the_lead_in_late() -> None:

@@ -17,11 +17,11 @@ from ksbo_mav.mav.approach import ACCEL, CRUISE_S, Approach, approach_outside, s
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.objective import MavlinkObjective
 from ksbo_mav.mav.vehicle import Vehicle
-from ksbo_mav.objective import SimObjective
 from ksbo_mav.profile_sections import MissionSpec
 from ksbo_mav.profiles import load_profile
-from ksbo_sim.episode import random_initial_states
-from ksbo_sim.monitor import planar_monitor_limits
+from ksbo_mav.simulated.planar_objective import SimObjective
+from ksbo_task.monitor import planar_monitor_limits
+from ksbo_task.starts import random_initial_states
 
 #: A recommendation of a MAVLink campaign (method ksbo, test seed 1): 0.79 from a settled hover, but
 #: its pitch loop diverges from some of the task's moving starts (E[P] 0.34 over the 8 fixed starts).

@@ -14,8 +14,8 @@ from ksbo_mav.mav.clock import VehicleClock
 from ksbo_mav.mav.commands import Commander, one_line
 from ksbo_mav.mav.mission import MIN_SCORE_RATE_HZ, Mission
 from ksbo_mav.mav.trajectory import TrialRecorder, end_text, ref_text, start_text
-from ksbo_mav.objective import Trajectory
 from ksbo_mav.profiles import load_profile
+from ksbo_task.flight import Trajectory
 
 
 def test_clock_waits_on_vehicle_time_not_on_message_count():

@@ -19,7 +19,7 @@ from ksbo_mav.mav.objective import MavlinkObjective
 from ksbo_mav.mav.snapshot import load_snapshot, write_snapshot
 from ksbo_mav.mav.vehicle import Vehicle
 from ksbo_mav.mav.wire import mavutil
-from ksbo_mav.objective import SimObjective
+from ksbo_mav.simulated.planar_objective import SimObjective
 
 pytestmark = [pytest.mark.network, pytest.mark.timeout(120)]
 

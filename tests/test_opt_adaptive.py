@@ -242,7 +242,7 @@ def test_ksbo_reselects_its_orders_every_10_iterations_by_default_and_0_keeps_th
 
 
 def test_monitor_outcomes_reach_the_result_counts() -> None:
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
 
     obj = SimObjective(seed=0, monitor=True)
     slow = np.array([0.15, 0.5, 0.1, 0.5, 0.0, 0.2, 3e4, 0.0, 1e4])

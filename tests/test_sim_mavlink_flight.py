@@ -13,7 +13,7 @@ from ksbo_sim.testing import (CMD_SIM_RESET, CMD_SIM_SET_STATE, GUIDED, LAND, LO
 from ksbo_mav.profiles import load_profile
 from ksbo_mav.scoring import score, score_rollout
 from ksbo_sim import EpisodeConfig, simulate
-from ksbo_sim.figure8 import Figure8
+from ksbo_task.figure8 import Figure8
 
 pytestmark = [pytest.mark.network, pytest.mark.timeout(60)]
 

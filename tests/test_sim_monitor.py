@@ -8,11 +8,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from ksbo_mav.objective import SimObjective
 from ksbo_mav.opt.outcome import Evaluation
-from ksbo_sim.episode import BACKUP_GAINS, EpisodeConfig, MonitorConfig, fixed_initial_states, simulate
-from ksbo_sim.monitor import FENCE, TILT, TRACK, MonitorLimits, Outcome, check_state, trip_codes
+from ksbo_mav.simulated.planar_objective import SimObjective
+from ksbo_sim.episode import BACKUP_GAINS, EpisodeConfig, MonitorConfig, simulate
 from ksbo_sim.plants import PLANTS
+from ksbo_task.monitor import FENCE, TILT, TRACK, MonitorLimits, Outcome, check_state, trip_codes
+from ksbo_task.starts import fixed_initial_states
 
 A0 = np.array(BACKUP_GAINS)
 SLOW = np.array([0.15, 0.5, 0.1, 0.5, 0.0, 0.2, 3e4, 0.0, 1e4])  # Ix 0.5: the x loop winds up over seconds

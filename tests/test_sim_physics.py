@@ -5,9 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from ksbo_sim import EpisodeConfig, Figure8, SCG_CRAZYFLIE, simulate
+from ksbo_sim import EpisodeConfig, SCG_CRAZYFLIE, simulate
 from ksbo_sim.dynamics import integrate, integrate_stepwise
 from ksbo_sim.pid import PlanarPID
+from ksbo_task.figure8 import Figure8
 
 C = SCG_CRAZYFLIE
 

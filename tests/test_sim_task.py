@@ -3,12 +3,14 @@
 import numpy as np
 import pytest
 
-from ksbo_mav.objective import SimObjective, Trajectory
 from ksbo_mav.profiles import load_profile
-from ksbo_mav.scoring import score_rollout
-from ksbo_sim import fixed_initial_states, random_initial_states, simulate
-from ksbo_sim.episode import EpisodeConfig, stress_initial_state
+from ksbo_mav.scoring import score_rollout, score_trajectory
+from ksbo_mav.simulated.planar_objective import SimObjective
+from ksbo_sim import simulate
+from ksbo_sim.episode import EpisodeConfig
 from ksbo_sim.scalar import simulate_one
+from ksbo_task.flight import Trajectory
+from ksbo_task.starts import fixed_initial_states, random_initial_states, stress_initial_state
 
 PROFILE = load_profile("sim-planar")
 A0 = PROFILE.default
@@ -94,7 +96,7 @@ def test_objective_interfaces_agree():
     direct = score_rollout(simulate(A0, init))
     assert flight.P == pytest.approx(direct.P[0], abs=1e-12)
     assert isinstance(flight.trajectory, Trajectory)
-    assert flight.trajectory.score().P[0] == pytest.approx(flight.P, abs=1e-12)
+    assert score_trajectory(flight.trajectory).P[0] == pytest.approx(flight.P, abs=1e-12)
     assert obj.batch(np.stack([A0] * 5)).shape == (5,)
 
 
@@ -128,11 +130,11 @@ FRAGILE = np.array([0.6298, 0.000687, 0.1661, 0.9042, 0.0331, 1.718, 28373.0, 10
 
 def test_stress_start_is_against_the_path_and_fails_fragile_gains():
     cfg = EpisodeConfig()
-    s = stress_initial_state(cfg)
+    s = stress_initial_state(cfg.figure8)
     assert s.shape == (6,)
     assert np.allclose(s[[0, 2]], cfg.figure8.position(0.0)) and s[3] == 0 and s[4] == s[5] == 0
     assert s[1] == pytest.approx(-0.9) and np.sign(cfg.figure8.velocity(0.0)[0]) == 1.0  # against the path's +x
-    assert stress_initial_state(cfg, v_max=0.5)[1] == pytest.approx(-0.45)
+    assert stress_initial_state(cfg.figure8, v_max=0.5)[1] == pytest.approx(-0.45)
     obj = SimObjective()  # strict: plain P
     along = s.copy()
     along[1] = 1.0

@@ -15,7 +15,7 @@ from typing import Any
 
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.outcome import TrialOutcome
-from ksbo_mav.objective import Flight
+from ksbo_task.flight import Flight
 
 KINDS = ("opt", "prior", "confirm", "failed", "baseline")
 

@@ -45,14 +45,14 @@ def simulated_prior(profile: Any, X: np.ndarray, seed: int, log: Callable[[str],
     planar profile, our JSBSim copter for the copter profiles (the vehicle class the profile names; P scored
     against its own baseline flight, as on the vehicle). An aborted or crashed episode gives the P of an abort
     (-0.1) so that the model sees where the simulated vehicle failed."""
-    from ksbo_mav.copter_objective import COPTER_PLANTS
+    from ksbo_mav.simulated.copter_objective import COPTER_PLANTS
 
     plant = next((k for k, (name, _) in COPTER_PLANTS.items() if name == profile.name), None)
     if plant is None:
-        from ksbo_mav.objective import SimObjective
+        from ksbo_mav.simulated.planar_objective import SimObjective
 
         return "simulator", SimObjective(profile, seed=seed).batch(X)
-    from ksbo_mav.copter_objective import CopterObjective
+    from ksbo_mav.simulated.copter_objective import CopterObjective
 
     obj = CopterObjective(plant)
     y = []

@@ -7,7 +7,7 @@ from typing import Any
 
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.trial_rows import trial_role
-from ksbo_mav.objective import Flight
+from ksbo_task.flight import Flight
 
 
 @dataclass(frozen=True)

@@ -150,7 +150,7 @@ def _rms(e: JournalEntry) -> float | None:
 
 
 def trajectory(record: str) -> tuple[Any, dict[str, Any]]:
-    """The trial's :class:`~ksbo_mav.objective.Trajectory` and recorder info, replayed from its tlog."""
+    """The trial's :class:`~ksbo_task.flight.Trajectory` and recorder info, replayed from its tlog."""
     from ksbo_mav.mav.tlog import read_tlog
     from ksbo_mav.mav.trajectory import trajectory_from_tlog
 

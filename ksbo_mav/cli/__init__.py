@@ -12,7 +12,6 @@ import importlib
 import sys
 
 from ksbo_mav.errors import CampaignPaused, KsboError
-from ksbo_sim.errors import SimError
 
 #: Command modules, in the order `--help` lists them.
 COMMANDS: tuple[str, ...] = ("evaluate", "sim", "prior", "select", "tune", "report", "score", "compare", "check",
@@ -47,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     except CampaignPaused as exc:  # a pack to swap, a failsafe: a normal stop, resumable
         print(f"stopped: {exc}", file=sys.stderr)
         return 3
-    except (KsboError, SimError) as exc:  # the simulator's errors are the user's to fix too
+    except KsboError as exc:  # the commands that run a simulator turn its errors into these
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into `head` and the like

@@ -30,15 +30,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ksbo_mav.objective import SimObjective
-    from ksbo_sim.episode import fixed_initial_states, random_initial_states
+    from ksbo_mav.simulated.planar_objective import SimObjective
+    from ksbo_task.starts import fixed_initial_states, random_initial_states
 
     profile = planar_profile(args.profile, "evaluate")
     gains = profile.check_gains(parse_gains(args.gains, profile), within_box=False)
     obj = SimObjective(profile, seed=args.seed)
     rng = np.random.default_rng(args.seed)
-    init = (fixed_initial_states(config=obj.episode) if args.fixed
-            else random_initial_states(args.episodes, rng, obj.episode))
+    init = (fixed_initial_states(figure8=obj.episode.figure8) if args.fixed
+            else random_initial_states(args.episodes, rng, obj.episode.figure8))
     flights = [obj.fly(gains, init=row) for row in init]
     scores = [f.score for f in flights]
     P = np.array([s["P"] for s in scores])

@@ -72,7 +72,7 @@ def mission_score(log: FlightLog, fit: Fit, mission, rms_ref: float | None = Non
     """The profile's score (``Mission.score``) of the figure-8, or the reason there is none. ``rms_ref`` (the
     campaign's baseline lap-2 RMS; default: the trial's ``ref rms=`` marker when logged) makes P comparable with
     the live score; without one a flight is its own reference."""
-    from ksbo_mav.objective import Trajectory
+    from ksbo_task.flight import Trajectory
 
     n, dt = mission.steps, mission.dt
     if fit.steps is not None and (fit.steps, fit.dt_ms) != (mission.steps, mission.dt_ms):

@@ -113,7 +113,7 @@ def _fit(tg: Track, run: tuple[float, float], log: FlightLog, seg: Segment, miss
         cn, *_ = np.linalg.lstsq(X, pos[steady, 0], rcond=None)
         if abs(math.hypot(cn[0], cn[1]) - A) > AMP_TOL * A:
             return None
-        # A lead-in of L s delays the pattern by L/2 (ksbo_sim.lead_in): the sinusoid's phase start is L/2 late.
+        # A lead-in of L s delays the pattern by L/2 (ksbo_task.lead_in): the sinusoid's phase start is L/2 late.
         t0m = math.atan2(-cn[1], cn[0]) / w - 0.5 * mission.lead_in
         t0 = t0m + T * round((run[0] - t0m) / T)
         # refine: least squares over the run (its edges, where the setpoints start or stop moving, left out),

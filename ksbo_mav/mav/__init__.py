@@ -6,7 +6,7 @@
 * :mod:`~ksbo_mav.mav.commands` — COMMAND_LONG with acknowledgement, modes, arming, takeoff, landing;
 * :mod:`~ksbo_mav.mav.stacks` — autopilot identity, parameter name generations, scale factors;
 * :mod:`~ksbo_mav.mav.snapshot` — on-disk parameter snapshots (.param, .params, .json) and restore;
-* :mod:`~ksbo_mav.mav.trajectory` — telemetry + logged setpoints -> :class:`ksbo_mav.objective.Trajectory`;
+* :mod:`~ksbo_mav.mav.trajectory` — telemetry + logged setpoints -> :class:`ksbo_task.flight.Trajectory`;
 * :mod:`~ksbo_mav.mav.monitor` — in-flight safety monitor;
 * :mod:`~ksbo_mav.mav.mission` — figure-8 setpoint streaming (one trial);
 * :mod:`~ksbo_mav.mav.vehicle` — preflight, whitelisted writes, restore: the vehicle as the tuner sees it;

@@ -1,6 +1,6 @@
 """The moving start of a planar trial: the vehicle passes the figure-8 start at a random velocity.
 
-The paper's task (fact sheet part C, :func:`ksbo_sim.episode.random_initial_states`) starts every episode at the
+The paper's task (fact sheet part C, :func:`ksbo_task.starts.random_initial_states`) starts every episode at the
 figure-8 origin with a random velocity v0 ~ U(0, 1) m/s in a random direction of the x-z plane. A MAVLink trial
 that starts from a settled hover scores only one of those starts, and gains that are bistable - fine from rest,
 diverging from some moving starts - look good in every trial, re-flight and confirmation of a campaign
@@ -25,8 +25,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ksbo_mav.errors import InputError
-from ksbo_sim.episode import random_initial_states, stress_initial_state
-from ksbo_sim.monitor import MonitorLimits
+from ksbo_task.monitor import MonitorLimits
+from ksbo_task.starts import random_initial_states, stress_initial_state
 
 if TYPE_CHECKING:
     from ksbo_mav.mav.mission import Mission
@@ -49,14 +49,14 @@ def _ned(s: np.ndarray) -> np.ndarray:
 
 def start_velocity(kind: str, v_max: float, seed: int, trial: int) -> np.ndarray:
     """(3,) NED velocity at the figure-8 start of trial ``trial``: the task's random start (the same draw as
-    :func:`ksbo_sim.episode.random_initial_states`), zero without :func:`moving_starts`."""
+    :func:`ksbo_task.starts.random_initial_states`), zero without :func:`moving_starts`."""
     if not moving_starts(kind, v_max):
         return np.zeros(3)
     return _ned(random_initial_states(1, np.random.default_rng([seed, trial]), v_max=v_max)[0])
 
 
 def stress_velocity(kind: str, v_max: float) -> np.ndarray:
-    """(3,) NED velocity of the stress start (:func:`ksbo_sim.episode.stress_initial_state`: 0.9 × ``v_max``
+    """(3,) NED velocity of the stress start (:func:`ksbo_task.starts.stress_initial_state`: 0.9 × ``v_max``
     against the path in x), flown by the re-fly phase with ``refly_stress``; zero without :func:`moving_starts`."""
     return _ned(stress_initial_state(v_max=v_max)) if moving_starts(kind, v_max) else np.zeros(3)
 

@@ -8,7 +8,7 @@
   campaign's baseline flight: ``P = 1 - e / (ratio * e_baseline)`` (:meth:`Mission.score`), so the baseline
   scores 0.5 on any vehicle and P < 0 means more than ``ratio`` (2) times worse; an early end scores
   ``-(1 - (L/n)^2)`` like P(a). With ``lead_in`` (the profile's ``lead_in_s``) the pattern starts from rest
-  (:mod:`ksbo_sim.lead_in`) instead of with a 3.5 m/s velocity step; the scored lap 2 is an ordinary lap.
+  (:mod:`ksbo_task.lead_in`) instead of with a 3.5 m/s velocity step; the scored lap 2 is an ordinary lap.
 
 Setpoints carry position + velocity + acceleration (type_mask 0x0C00, frame LOCAL_NED): streamed feed-forward
 isolates the position loop from trajectory shaping (fact sheet 4.2). Holds use position-only targets (0x0DF8),
@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.profiles import Profile
-from ksbo_mav.scoring import ScoreConfig
-from ksbo_sim.copter3d.mission import Figure8H
+from ksbo_mav.scoring import ScoreConfig, score_trajectory
+from ksbo_task.figure8_ne import Figure8H
 
 MASK_POS_VEL_ACC = 0x0C00
 MASK_POS = 0x0DF8
@@ -53,7 +53,7 @@ class Mission:
     laps: int
     rate_hz: int
     score_section: tuple[tuple[str, Any], ...] = ()
-    lead_in: float = 0.0  # s (figure8-ne): start from rest, ksbo_sim.lead_in
+    lead_in: float = 0.0  # s (figure8-ne): start from rest, ksbo_task.lead_in
     start_speed: float = 0.0  # m/s (figure8-xz): trials start moving, ksbo_mav.mav.approach
 
     @classmethod
@@ -114,7 +114,7 @@ class Mission:
         """(pos, vel, acc) NED of the reference ``t`` seconds after the start."""
         if self.kind == "figure8-ne":
             return self.figure8h.state(t)
-        # figure8-xz: x = A sin wt, z = z0 + A sin wt cos wt = z0 + A/2 sin 2wt (ksbo_sim.Figure8)
+        # figure8-xz: x = A sin wt, z = z0 + A sin wt cos wt = z0 + A/2 sin 2wt (ksbo_task.figure8.Figure8)
         w = 2.0 * math.pi / self.period
         s, c, s2, c2 = math.sin(w * t), math.cos(w * t), math.sin(2 * w * t), math.cos(2 * w * t)
         A = self.scale
@@ -133,7 +133,7 @@ class Mission:
 
     # --- score -------------------------------------------------------------------------------------------
     def score(self, traj: Any, rms_ref: float | None = None) -> dict[str, Any]:
-        """Score dict of a :class:`ksbo_mav.objective.Trajectory` (``P`` first; JSON friendly).
+        """Score dict of a :class:`ksbo_task.flight.Trajectory` (``P`` first; JSON friendly).
 
         3-D missions (``figure8-ne``): lap-2 RMS of |measured - commanded| over the samples received, at any
         telemetry rate of at least :data:`MIN_SCORE_RATE_HZ` with no gap longer than :data:`MAX_SAMPLE_GAP_S`.
@@ -143,7 +143,7 @@ class Mission:
         well it tracks, and P < 0 ("unsafe") means tracking more than ``ratio`` times worse than the baseline.
         """
         if self.kind == "figure8-xz":
-            return traj.score(self.score_config()).item()
+            return score_trajectory(traj, self.score_config()).item()
         n, (lo, hi) = self.steps, self.window
         cfg = dict(self.score_section)
         ratio = float(cfg.get("unsafe_rms_ratio", 2.0))

@@ -35,7 +35,7 @@ from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.trial_flight import TrialFlight
 from ksbo_mav.mav.trial_record import score_trial, write_record
 from ksbo_mav.mav.vehicle import Vehicle
-from ksbo_mav.objective import Flight
+from ksbo_task.flight import Flight
 
 
 class MavlinkObjective:

@@ -1,4 +1,4 @@
-"""One trial's telemetry and logged setpoints -> :class:`ksbo_mav.objective.Trajectory`.
+"""One trial's telemetry and logged setpoints -> :class:`ksbo_task.flight.Trajectory`.
 
 :class:`TrialRecorder` is fed every packet of a link in both directions, *as decoded from the wire*: live by the
 link's taps, offline from a tlog. Both paths therefore see the same numbers (float32 setpoints included) and the
@@ -28,7 +28,7 @@ import numpy as np
 
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.mission import KINDS, MASK_POS_VEL_ACC, task_ref, task_state
-from ksbo_mav.objective import Trajectory
+from ksbo_task.flight import Trajectory
 
 MAX_GAP = 5
 START_RE = re.compile(r"^ksbo (f8h?) start t0=(\d+) n=(\d+) dt=(\d+) w=(\d+)$")

@@ -3,7 +3,7 @@
 :func:`score_trial` computes the trial's score from exactly what its tlog holds (so ``ksbo-mav score`` reproduces it)
 and decides whom its outcome blames: a lap that could not be measured is the telemetry's doing, a monitor trip right
 after the setpoint stream stalled, or a lap flown on late setpoints, is this computer's. :func:`write_record` writes
-the JSON record next to the tlog and returns the :class:`~ksbo_mav.objective.Flight`.
+the JSON record next to the tlog and returns the :class:`~ksbo_task.flight.Flight`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.snapshot import fsync_write
 from ksbo_mav.mav.trial_flight import FlownTrial, LinkStats
-from ksbo_mav.objective import Flight, Trajectory
+from ksbo_task.flight import Flight, Trajectory
 
 #: A setpoint sent more than LATE_MS of vehicle time after its step is late; more than MAX_LATE_FRACTION of the
 #: scored lap late and the trial measures the client, not the gains (outcome "client", retried by the campaign).
@@ -91,7 +91,7 @@ def write_record(stem: Path, index: int, label: str, x: np.ndarray, names: list[
                  flown: FlownTrial, scored: ScoredTrial, started: float, extra: dict[str, Any]) -> Flight:
     """Write ``stem``.json (fsynced) for trial ``index`` of gains ``x`` (d,) named ``names``, written as the
     autopilot parameters ``params``; ``started``: wall-clock start (s); ``extra``: further record fields.
-    Returns the trial as a :class:`~ksbo_mav.objective.Flight` whose ``meta`` is the record without its score."""
+    Returns the trial as a :class:`~ksbo_task.flight.Flight` whose ``meta`` is the record without its score."""
     outcome = scored.outcome
     meta = {"trial": index, "label": label, "outcome": outcome.value, "outcome_text": outcome.text,
             "message": scored.message, "restored": flown.restored, "tlog": str(stem.with_suffix(".tlog")),

@@ -101,10 +101,10 @@ class AdaptiveConfig:
             is then the best mean over each point's flights (once any trial failed: the best expected score under
             the failure model, and a candidate that failed is not re-flown; opt.recommend).
         refly_stress: where the objective has a stress start (``fun.stress(x)``, e.g.
-            :meth:`ksbo_mav.objective.SimObjective.stress`, a planar MAVLink campaign's moving starts), the re-fly
-            phase first flies each candidate once from it, and only candidates that pass are re-flown and can be
-            recommended (opt.refly): gains that fail from part of the starts fail there first. An objective
-            without ``stress`` (the copters) re-flies as usual. On in ``ksbo-adaptive`` (opt.options).
+            :meth:`ksbo_mav.simulated.planar_objective.SimObjective.stress`, a planar MAVLink campaign's moving
+            starts), the re-fly phase first flies each candidate once from it, and only candidates that pass are
+            re-flown and can be recommended (opt.refly): gains that fail from part of the starts fail there first.
+            An objective without ``stress`` (the copters) re-flies as usual. On in ``ksbo-adaptive`` (opt.options).
         reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
             by marginal likelihood (Algorithm 1 stays the first selection); 0 = never (the paper's once-only
             selection). ``ksbo`` and ``ksbo-adaptive`` default to 10 (opt.options).

@@ -18,7 +18,7 @@ import numpy as np
 
 def slices(plant: str, dims: list[int], grid: np.ndarray) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """{dim: ((g,) E[P], (g,) failing starts of 8)} along each gain of ``dims`` over ``grid`` (unit cube)."""
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
 
     obj = SimObjective(plant=plant, monitor=True, seed=0)
     a0 = obj.profile.to_unit(obj.profile.default)

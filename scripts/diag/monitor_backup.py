@@ -26,7 +26,7 @@ import numpy as np
 
 def monitors() -> dict[str, object]:
     from ksbo_sim.episode import MonitorConfig
-    from ksbo_sim.monitor import planar_monitor_limits
+    from ksbo_task.monitor import planar_monitor_limits
 
     before = MonitorConfig(limits=replace(planar_monitor_limits(), brake_accel=None), attitude_priority=False)
     return {"before": before, "now": MonitorConfig()}
@@ -44,9 +44,10 @@ def random_gains(profile, n: int, rng: np.random.Generator) -> np.ndarray:
 def fly(plant: str, n: int, seed: int) -> dict[str, tuple[object, np.ndarray]]:
     """Per monitor ("before", "now"): the :class:`ksbo_sim.episode.Rollout` of ``n`` random gains on ``plant`` and
     their (n,) P, the same gains and initial conditions under both."""
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
     from ksbo_mav.scoring import score_rollout
-    from ksbo_sim.episode import random_initial_states, simulate
+    from ksbo_sim.episode import simulate
+    from ksbo_task.starts import random_initial_states
 
     rng = np.random.default_rng(seed)
     out: dict[str, tuple[object, np.ndarray]] = {}
@@ -55,7 +56,7 @@ def fly(plant: str, n: int, seed: int) -> dict[str, tuple[object, np.ndarray]]:
         obj = SimObjective(plant=plant, monitor=mon)
         if X is None:
             X = random_gains(obj.profile, n, rng)
-            init = random_initial_states(n, rng, obj.episode)
+            init = random_initial_states(n, rng, obj.episode.figure8)
         r = simulate(X, init, obj.episode)
         out[name] = (r, score_rollout(r, obj.score_config).P)
     return out
@@ -64,7 +65,7 @@ def fly(plant: str, n: int, seed: int) -> dict[str, tuple[object, np.ndarray]]:
 def plant_counts(plant: str, n: int, seed: int, flights: dict | None = None) -> dict[str, np.ndarray]:
     """Per monitor: (n,) outcome codes (0 complete, 1 aborted, 2 crashed) and (n,) P (key ``<monitor>_P``), same
     gains and starts; ``flights`` reuses a :func:`fly` result."""
-    from ksbo_sim.monitor import Outcome
+    from ksbo_task.monitor import Outcome
 
     code = {Outcome.COMPLETE: 0, Outcome.ABORTED: 1, Outcome.CRASHED: 2}
     out: dict[str, np.ndarray] = {}
@@ -80,7 +81,7 @@ def crash_causes(rollout) -> tuple[dict[str, int], float]:
     from collections import Counter
 
     from ksbo_sim.episode import REASONS
-    from ksbo_sim.monitor import TRIP_NAMES
+    from ksbo_task.monitor import TRIP_NAMES
 
     r = rollout
     causes: Counter[str] = Counter()

@@ -26,7 +26,7 @@ DROP = 0.1
 
 def segments(recs: list[dict], points: int = 51) -> list[dict]:
     """Per record: the segment's distances (points,), E[P] (points,), and the best value before the first drop."""
-    from ksbo_mav.objective import SimObjective
+    from ksbo_mav.simulated.planar_objective import SimObjective
 
     obj = SimObjective(plant="nominal", monitor=False)
     uo = obj.profile.to_unit(ORACLE)

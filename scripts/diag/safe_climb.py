@@ -39,14 +39,15 @@ class Climb:
 
     def __init__(self, plant: str, seed: int, lam: int = 48, sigma: float = 0.04, generations: int = 120,
                  n_random: int = N_RANDOM):
-        from ksbo_mav.objective import SimObjective
-        from ksbo_sim.episode import fixed_initial_states, random_initial_states
+        from ksbo_mav.simulated.planar_objective import SimObjective
+        from ksbo_task.starts import fixed_initial_states, random_initial_states
 
         self.obj = SimObjective(plant=plant, monitor=False)
         self.plant, self.seed, self.lam, self.sigma0, self.generations = plant, seed, lam, sigma, generations
-        fixed = fixed_initial_states(config=self.obj.episode)
-        self.inits = np.vstack([fixed, random_initial_states(n_random, np.random.default_rng(777), self.obj.episode)])
-        self.check = random_initial_states(CHECK_STARTS, np.random.default_rng(4242), self.obj.episode)
+        fixed = fixed_initial_states(figure8=self.obj.episode.figure8)
+        figure8 = self.obj.episode.figure8
+        self.inits = np.vstack([fixed, random_initial_states(n_random, np.random.default_rng(777), figure8)])
+        self.check = random_initial_states(CHECK_STARTS, np.random.default_rng(4242), self.obj.episode.figure8)
         self.episodes = 0
 
     def evaluate(self, U: np.ndarray, inits: np.ndarray | None = None) -> np.ndarray:

@@ -1,80 +1,30 @@
-"""The one objective interface: "fly these gains, return a scored trajectory".
-
-:class:`Trajectory` is what every source produces (in-process simulator, MAVLink vehicle, offline tlog), and
-:func:`ksbo_mav.scoring.score` turns it into P(a) the same way whatever the source. :class:`SimObjective`
-is the in-process planar simulator, vectorised for optimisers and benchmarks.
+"""The in-process planar simulator as an objective (:class:`SimObjective`), vectorised for optimisers and
+benchmarks: it flies gains from the task's starts and returns P(a), or a :class:`ksbo_task.flight.Flight` whose
+trajectory is scored the same way as a MAVLink vehicle's (:func:`ksbo_mav.scoring.score_trajectory`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
+from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
 from ksbo_mav.errors import InputError
 from ksbo_mav.profiles import Profile, load_profile
-from ksbo_mav.scoring import Score, ScoreConfig, score, score_rollout
-from ksbo_sim.episode import (REASONS, EpisodeConfig, MonitorConfig, Rollout, fixed_initial_states,
-                              random_initial_states, simulate, stress_initial_state)
-from ksbo_sim.monitor import Outcome
+from ksbo_mav.scoring import Score, ScoreConfig, score_rollout, score_trajectory
+from ksbo_sim.episode import REASONS, EpisodeConfig, MonitorConfig, Rollout, simulate
 from ksbo_sim.plants import Plant, plant as suite_plant
+from ksbo_task.flight import Flight, Trajectory
+from ksbo_task.monitor import Outcome
+from ksbo_task.starts import fixed_initial_states, random_initial_states, stress_initial_state
 
 
-@dataclass
-class Trajectory:
-    """A flown (or logged) trajectory, planar task coordinates (x, z up).
-
-    Attributes:
-        t: (n,) sample times in seconds from the episode start.
-        steps: (n,) control step k after which sample i was taken.
-        states: (n, 6) [x, vx, z, vz, theta, theta_dot].
-        refs: (n, 6) reference state at the same instants.
-        inputs: (n, 2) pair thrusts (N) or None when the source does not report them.
-        L: control steps flown.
-        source: where it came from ("sim", "mavlink", "tlog").
-    """
-
-    t: np.ndarray
-    steps: np.ndarray
-    states: np.ndarray
-    refs: np.ndarray
-    inputs: np.ndarray | None
-    L: int
-    source: str = "sim"
-
-    def score(self, config: ScoreConfig = ScoreConfig()) -> Score:
-        return score(self.states, self.refs, self.steps, self.L, self.inputs, config)
-
-    @classmethod
-    def from_rollout(cls, rollout: Rollout, i: int = 0) -> "Trajectory":
-        """Row ``i`` of a simulator rollout, cut at the last flown step."""
-        L = int(rollout.L[i])
-        return cls(t=rollout.t[1 : L + 1], steps=np.arange(L), states=rollout.states[i, 1 : L + 1],
-                   refs=rollout.refs[1 : L + 1], inputs=rollout.inputs[i, :L], L=L, source="sim")
-
-
-@dataclass
-class Flight:
-    """The result of flying one gain vector: the trajectory, its score, and why it ended."""
-
-    gains: np.ndarray
-    trajectory: Trajectory
-    score: dict[str, Any]
-    outcome: str = "completed"  # or a crash / abort reason
-    meta: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def P(self) -> float:
-        return float(self.score["P"])
-
-
-class Objective(Protocol):
-    """Anything that can fly gains and score them: the simulator, a MAVLink vehicle, a log replayer."""
-
-    profile: Profile
-
-    def fly(self, gains: np.ndarray) -> Flight: ...
+def trajectory_from_rollout(rollout: Rollout, i: int = 0) -> Trajectory:
+    """Row ``i`` of a simulator rollout, cut at the last flown step."""
+    L = int(rollout.L[i])
+    return Trajectory(t=rollout.t[1 : L + 1], steps=np.arange(L), states=rollout.states[i, 1 : L + 1],
+                      refs=rollout.refs[1 : L + 1], inputs=rollout.inputs[i, :L], L=L, source="sim")
 
 
 class SimObjective:
@@ -141,7 +91,7 @@ class SimObjective:
         random initial velocity unless ``init`` (6,) is given."""
         from ksbo_mav.opt.outcome import Evaluation
 
-        init = random_initial_states(1, self.rng, self.episode) if init is None else np.atleast_2d(init)
+        init = random_initial_states(1, self.rng, self.episode.figure8) if init is None else np.atleast_2d(init)
         r = self.rollout(np.atleast_2d(x), init)
         return Evaluation(float(score_rollout(r, self.score_config).P[0]), r.outcomes[0])
 
@@ -153,16 +103,16 @@ class SimObjective:
         return self._simulate(X, np.atleast_2d(init), self.episode)
 
     def stress(self, x: np.ndarray) -> Any:
-        """One episode of gains ``x`` (d,) from the hardest start (:func:`ksbo_sim.episode.stress_initial_state`),
+        """One episode of gains ``x`` (d,) from the hardest start (:func:`ksbo_task.starts.stress_initial_state`),
         returned like :meth:`__call__`: the optimisers' re-fly phase may ask for it (``refly_stress``)."""
-        init = stress_initial_state(self.episode)
+        init = stress_initial_state(self.episode.figure8)
         if self.episode.monitor is None:
             return float(self.scores(np.atleast_2d(np.asarray(x, dtype=float)), init[None]).P[0])
         return self.trial(x, init)
 
     def scores(self, X: np.ndarray, init: np.ndarray, with_outcomes: bool = False) -> Any:
         """Score of each row of X (n, d) flown from the matching row of ``init`` (n, 6); with ``with_outcomes``
-        also the (n,) list of :class:`ksbo_sim.monitor.Outcome`."""
+        also the (n,) list of :class:`ksbo_task.monitor.Outcome`."""
         X = np.atleast_2d(self.profile.check_gains(X, within_box=False))
         parts, outcomes = [], []
         for lo in range(0, X.shape[0], self.chunk):
@@ -175,7 +125,7 @@ class SimObjective:
     def expected_outcomes(self, X: np.ndarray, inits: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Re-fly like :meth:`expected`; returns (n,) mean P and (n, 3) counts of complete / aborted / crashed."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
-        inits = fixed_initial_states(config=self.episode) if inits is None else np.atleast_2d(inits)
+        inits = fixed_initial_states(figure8=self.episode.figure8) if inits is None else np.atleast_2d(inits)
         n, m = X.shape[0], inits.shape[0]
         sc, outs = self.scores(np.repeat(X, m, axis=0), np.tile(inits, (n, 1)), with_outcomes=True)
         kinds = (Outcome.COMPLETE, Outcome.ABORTED, Outcome.CRASHED)
@@ -185,13 +135,13 @@ class SimObjective:
     def batch(self, X: np.ndarray) -> np.ndarray:
         """(n,) P of one episode per row of X (n, d), each from a fresh random initial velocity."""
         X = np.atleast_2d(X)
-        init = random_initial_states(X.shape[0], self.rng, self.episode)
+        init = random_initial_states(X.shape[0], self.rng, self.episode.figure8)
         return self.scores(X, init).P
 
     def expected(self, X: np.ndarray, inits: np.ndarray | None = None) -> np.ndarray:
         """(n,) mean P over the fixed initial conditions (8, seed 20240611, unless ``inits`` is given)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
-        inits = fixed_initial_states(config=self.episode) if inits is None else np.atleast_2d(inits)
+        inits = fixed_initial_states(figure8=self.episode.figure8) if inits is None else np.atleast_2d(inits)
         n, m = X.shape[0], inits.shape[0]
         P = self.scores(np.repeat(X, m, axis=0), np.tile(inits, (n, 1))).P
         return P.reshape(n, m).mean(axis=1)
@@ -199,11 +149,11 @@ class SimObjective:
     def fly(self, gains: np.ndarray, init: np.ndarray | None = None) -> Flight:
         """Fly one episode and keep its trajectory (for plots, logs and the MAVLink comparison)."""
         gains = self.profile.check_gains(gains, within_box=False)
-        init = random_initial_states(1, self.rng, self.episode)[0] if init is None else np.asarray(init, float)
+        init = random_initial_states(1, self.rng, self.episode.figure8)[0] if init is None else np.asarray(init, float)
         r = self._simulate(gains, init, self.episode)
         self.n_episodes += 1
-        traj = Trajectory.from_rollout(r)
-        return Flight(gains=gains, trajectory=traj, score=traj.score(self.score_config).item(),
+        traj = trajectory_from_rollout(r)
+        return Flight(gains=gains, trajectory=traj, score=score_trajectory(traj, self.score_config).item(),
                       outcome=REASONS[int(r.reason[0])], meta={"init": init.tolist()})
 
 
