@@ -38,5 +38,6 @@ def test_the_default_px4_sitl_pack_stops_the_campaign_with_the_setting_that_make
         assert "this is PX4 SITL's simulated pack" in last and "SIM_BAT_DRAIN = 60 s" in last, last
         assert "set SIM_BAT_DRAIN to 3600" in last and "`ksbo-mav tune --resume" in last, last
         assert "landed and disarmed" in r.stderr
+        print(last)  # the stop as the user reads it, for the record
     finally:
         sitl.stop()

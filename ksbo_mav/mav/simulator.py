@@ -32,8 +32,8 @@ def lasting_pack_hint(params: Mapping[str, float]) -> str | None:
     if sim == "PX4 SITL":
         drain, floor = params["SIM_BAT_DRAIN"], params.get("SIM_BAT_MIN_PCT", 50.0)
         return (f"this is PX4 SITL's simulated pack (it drains 100 % per SIM_BAT_DRAIN = {drain:g} s down to "
-                f"SIM_BAT_MIN_PCT = {floor:g} %, full again once disarmed): set SIM_BAT_DRAIN to 3600 (in the "
-                "SITL's pxh> shell `param set SIM_BAT_DRAIN 3600`) and it lasts a campaign (docs/sitl.md)")
+                f"SIM_BAT_MIN_PCT = {floor:g} %, full again once disarmed): set SIM_BAT_DRAIN to 3600 (PX4's "
+                "client beside the SITL: `px4-param set SIM_BAT_DRAIN 3600`) and it lasts a campaign (docs/sitl.md)")
     if sim == "ArduPilot SITL":
         cap = params.get("BATT_CAPACITY")
         counted = f" against BATT_CAPACITY = {cap:g} mAh" if cap is not None else ""
