@@ -67,7 +67,7 @@ def refly_in_turn(d, ep, gains: dict[str, dict[str, float]], n: int = 3) -> dict
     ``gains`` ({label: {parameter: value}}), flown in turn ``n`` times (the same condition on average) through the
     tuner's own objective; lands. Returns {"baseline" and each label: lap-2 RMS of each flight}."""
     from ksbo_mav.mav.objective import MavlinkObjective
-    from ksbo_mav.mav.snapshot import load_snapshot
+    from ksbo_mav.mav.params import load_snapshot
     from ksbo_mav.mav.vehicle import Vehicle
 
     snap = load_snapshot(d)

@@ -22,7 +22,7 @@ def overhead(n_obs: int = 200, repeats: int = 5) -> dict[str, float]:
 
     from ksbo_mav.opt.options import options_for
     from ksbo_mav.opt.problem import Problem
-    from ksbo_mav.opt.safe_methods import _build
+    from ksbo_mav.opt.methods.build import safe_bo_for
 
     with threadpool_limits(1):
         rng = np.random.default_rng(0)
@@ -30,7 +30,7 @@ def overhead(n_obs: int = 200, repeats: int = 5) -> dict[str, float]:
         y = np.sin(3 * X).sum(1) / 3
         opts = options_for("ksbo", METHOD_OPTIONS["ksbo"]).update({"expansion_iters": 0})
         prob = Problem(fun=lambda x: 0.0, lower=np.zeros(9), upper=np.ones(9), x0=X[0], budget=1)
-        bo = _build(prob, opts, (2, 3, 4), None, 0, rng)
+        bo = safe_bo_for(prob, opts, (2, 3, 4), None, 0, rng)
         bo.fit(X, y)
         t = []
         for _ in range(repeats):

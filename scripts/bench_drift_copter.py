@@ -39,7 +39,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from _bench_common import machine, refly_in_turn, sim_and_endpoint  # noqa: E402
 
 from ksbo_mav.cli import main  # noqa: E402
-from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
+from ksbo_mav.mav.params import load_snapshot  # noqa: E402
 from ksbo_sim.copter3d import Copter3D, fly  # noqa: E402
 from ksbo_task.figure8_ne import Figure8H  # noqa: E402
 

@@ -30,7 +30,7 @@ from _bench_common import machine, write_result  # noqa: E402
 from bench_sitl_campaign import SPEED, endpoint  # noqa: E402
 
 from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402
-from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
+from ksbo_mav.mav.params import load_snapshot  # noqa: E402
 from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
 from ksbo_sim.sitl import start_sitl  # noqa: E402
 

@@ -32,7 +32,7 @@ from _bench_common import machine, write_result  # noqa: E402
 
 from ksbo_mav.mav.link import Endpoint  # noqa: E402
 from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402
-from ksbo_mav.mav.snapshot import load_snapshot  # noqa: E402
+from ksbo_mav.mav.params import load_snapshot  # noqa: E402
 from ksbo_mav.mav.stacks import autopilot_updated  # noqa: E402
 from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
 from ksbo_sim.sitl import start_sitl  # noqa: E402

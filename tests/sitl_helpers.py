@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from ksbo_mav.mav.link import Endpoint
-from ksbo_mav.mav.snapshot import load_snapshot
+from ksbo_mav.mav.params import load_snapshot
 from ksbo_mav.mav.stacks import autopilot_updated
 from ksbo_mav.mav.vehicle import Vehicle
 

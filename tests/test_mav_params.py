@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from ksbo_mav.errors import InputError, VehicleError
-from ksbo_mav.mav.params import Param, decode, encode, same_value
+from ksbo_mav.mav.params import Param
+from ksbo_mav.mav.params.encoding import decode, encode, same_value
 from ksbo_mav.mav.stacks import (ARDUPILOT, ARDUPILOT_LEGACY, KSBO_SIM, PX4, GainMap, Identity,
                                  ardupilot_generation, default_profile, detect_stack)
 from ksbo_mav.profiles import load_profile

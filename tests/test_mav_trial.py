@@ -16,7 +16,7 @@ from mav_tune_helpers import GAINS, baseline, fresh_read, sim_and_endpoint
 from ksbo_mav.cli import main
 from ksbo_mav.errors import InputError, TrialStopped
 from ksbo_mav.mav.objective import MavlinkObjective
-from ksbo_mav.mav.snapshot import load_snapshot, write_snapshot
+from ksbo_mav.mav.params import load_snapshot, write_snapshot
 from ksbo_mav.mav.vehicle import Vehicle
 from ksbo_mav.mav.wire import mavutil
 from ksbo_mav.simulated.planar_objective import SimObjective

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import ksbo_mav
-from ksbo_mav.opt.failure_model import FailureModel, learn_scales
+from ksbo_mav.opt.models.failure_model import FailureModel, learn_scales
 from ksbo_mav.opt.outcome import Evaluation, Outcome
-from ksbo_mav.opt.trust_region import TrustRegion
+from ksbo_mav.opt.acquisition.trust_region import TrustRegion
 
 CENTER = np.array([0.6, 0.45])
 BOX2 = np.array([[0.0, 1.0]] * 2)
@@ -147,9 +147,9 @@ def test_aborted_trials_are_censored_not_values() -> None:
 def test_recommendation_refies_top_candidates_and_rejects_a_bistable_one() -> None:
     """B flew 1.0 once but aborts when re-flown; A flies 0.8 reliably: re-flying picks A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.recommend import best_expected
-    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.recommend import best_expected
+    from ksbo_mav.opt.methods.build import build_safe_bo
 
     A, B, C = np.array([0.3, 0.3]), np.array([0.5, 0.6]), np.array([0.8, 0.2])
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
@@ -171,10 +171,10 @@ def test_after_a_failure_the_recommendation_weighs_each_candidates_failures() ->
     the mean over its completed flights B would win; by expected score under the failure model A does. Control:
     the same flights with B's failure completed keep B."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.recommend import expected_value
-    from ksbo_mav.opt.build import build_safe_bo
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.recommend import expected_value
+    from ksbo_mav.opt.methods.build import build_safe_bo
+    from ksbo_mav.opt.methods.safe_bo import SafeBO
 
     A, B = np.array([0.2, 0.3]), np.array([0.7, 0.7])
 
@@ -258,8 +258,8 @@ def test_monitor_outcomes_reach_the_result_counts() -> None:
 
 def _adaptive_bo(**adaptive):
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
 
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
     return build_safe_bo(model, SafeBOConfig(recommend="mean", recommend_noise=None), np.ones(2, bool),
@@ -281,8 +281,8 @@ def test_fallback_never_refiles_a_point_the_failure_model_expects_to_abort() -> 
 
 def test_refly_candidates_include_the_best_single_flight() -> None:
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
 
     rng = np.random.default_rng(1)
     cluster = 0.3 + 0.02 * rng.standard_normal((6, 2))
@@ -327,7 +327,7 @@ def test_backup_is_trusted_only_until_it_fails_to_recover() -> None:
 def test_exclusion_balls_grow_when_failures_cluster_and_stay_fixed_otherwise() -> None:
     """A second failure just outside the first one's ball (0.07 from it, radius 0.05) doubles both balls; a
     failure far away keeps its own base ball; growth 1 (the paper method) keeps every ball at the base radius."""
-    from ksbo_mav.opt.exclusion import exclusion_radii
+    from ksbo_mav.opt.acquisition.exclusion import exclusion_radii
 
     bad = np.array([[0.5, 0.5], [0.57, 0.5], [0.1, 0.9]])
     np.testing.assert_allclose(exclusion_radii(bad, 0.05, 2.0, 0.2), [0.1, 0.1, 0.05])
@@ -341,8 +341,8 @@ def test_no_query_and_no_fallback_inside_a_grown_exclusion_ball() -> None:
     """After two clustered aborts, the state machine certifies nothing within the grown (0.1) ball of either,
     although the main GP never saw them (censored); the point 0.07 from the first abort was allowed before."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
 
     model = SafetyModel(ModelSpec(orders=(1, 2), lengthscale=0.3, signal_std=1.0, noise_std=0.01), 2)
     bo = build_safe_bo(model, SafeBOConfig(n_local=256, n_global=64, exclusion_radius=0.05), np.ones(2, bool),
@@ -365,9 +365,9 @@ def test_a_failure_at_new_gains_shrinks_the_learnt_safety_scale_a_failed_refligh
     """The SE-ARD GP here has orders (d,), so it is the scale model; its ML-II lengthscales are multiplied by
     ``failure_scale_shrink`` per failure at new gains (the certified region shrinks), not for a failed re-flight."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
+    from ksbo_mav.opt.methods.safe_bo import SafeBO
 
     rng = np.random.default_rng(1)
     X = 0.4 + 0.2 * rng.random((12, 2))
@@ -398,9 +398,9 @@ def test_an_unsafe_flight_at_new_gains_shrinks_a_fixed_safety_scale_a_safe_one_o
     local safety GP per completed flight below p_min at new gains; a safe flight and an unsafe re-flight of flown
     gains leave it. The additive main GP keeps its own lengthscale."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
+    from ksbo_mav.opt.methods.safe_bo import SafeBO
 
     rng = np.random.default_rng(1)
     X = 0.4 + 0.2 * rng.random((12, 3))
@@ -437,8 +437,8 @@ def test_an_unsafe_flight_at_new_gains_shrinks_a_fixed_safety_scale_a_safe_one_o
 def test_a_refly_candidate_that_fails_is_not_flown_again() -> None:
     """Re-fly phase of 6 flights over 2 candidates: B aborts at its first re-flight, so the rest go to A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
 
     A, B = np.array([0.2, 0.3]), np.array([0.7, 0.7])
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
@@ -459,8 +459,8 @@ def test_when_every_refly_candidate_failed_the_best_point_clear_of_failures_is_f
     """Only B is a candidate and it aborts: the next re-flights go to A (4 clean flights, far from B), which
     joins the re-flown set; the final choice is A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
 
     A, B = np.array([0.2, 0.3]), np.array([0.7, 0.7])
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.01), 2)
@@ -481,9 +481,9 @@ def test_ard_acquisition_stops_paying_for_uncertainty_along_flat_dimensions() ->
     GP's, so a step along a dimension the data show to be flat earns less UCB than the same step along the one that
     matters; the safety bound (LCB) is the main and safety GPs' and does not change."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
-    from ksbo_mav.opt.safe_bo import SafeBO
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
+    from ksbo_mav.opt.methods.safe_bo import SafeBO
 
     rng = np.random.default_rng(3)
     X = 0.3 + 0.4 * rng.random((40, 3))
@@ -519,9 +519,9 @@ def test_a_lucky_flight_does_not_stop_the_trust_region_growing() -> None:
     """The lucky point flew 0.95 once; two neighbouring trials at 0.92 and 0.94 are the better region by the
     posterior mean though neither beats 0.95 as flown. The second becomes the incumbent: a success, and the region
     grows (one success grows it here). A trial that does not become the incumbent is no success."""
-    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.methods.build import build_safe_bo
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
 
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.3), 2)
     bo = build_safe_bo(model, SafeBOConfig(), np.ones(2, bool), np.random.default_rng(0),
@@ -542,8 +542,8 @@ def test_the_trust_region_centre_is_never_inside_a_failures_exclusion_ball() -> 
     candidate to query: a 200-flight nominal run re-flew one point near a0 for its last ~80 flights. Control:
     fixed balls keep A."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
 
     A, B = np.array([0.6, 0.6]), np.array([0.3, 0.3])
 
@@ -565,8 +565,8 @@ def test_a_scale_refit_fits_the_safety_gp_once_and_matches_a_fresh_fit(monkeypat
     its signal and noise scales on the first call), and the posterior is that of a fresh fit with the learnt
     lengthscales."""
     from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
-    from ksbo_mav.opt.model import ModelSpec, SafetyModel
-    from ksbo_mav.opt.build import build_safe_bo
+    from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+    from ksbo_mav.opt.methods.build import build_safe_bo
 
     rng = np.random.default_rng(5)
     X = 0.4 + 0.2 * rng.random((30, 3))

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from ksbo_mav.errors import InputError
-from ksbo_mav.opt.candidates import local_gaussian, refine, sobol
-from ksbo_mav.opt.linebo import line_grid, safe_interval
+from ksbo_mav.opt.acquisition.candidates import local_gaussian, refine, sobol
+from ksbo_mav.opt.acquisition.lines import line_grid, safe_interval
 from ksbo_mav.opt.options import options_for
 
 
@@ -77,7 +77,7 @@ def test_options_defaults_and_unknown_names() -> None:
 
 
 def test_order_selection_respects_max_order() -> None:
-    from ksbo_mav.opt.selection import KernelSelection, select_kernel
+    from ksbo_mav.opt.models.selection import KernelSelection, select_kernel
 
     rng = np.random.default_rng(0)
     X = rng.random((20, 6))

@@ -8,10 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import ksbo_mav
-from ksbo_mav.opt.model import ModelSpec, SafetyModel
-from ksbo_mav.opt.build import build_safe_bo
+from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
+from ksbo_mav.opt.methods.build import build_safe_bo
 from ksbo_mav.opt.config import SafeBOConfig
-from ksbo_mav.opt.safe_bo import SafeBO
+from ksbo_mav.opt.methods.safe_bo import SafeBO
 
 D = 3
 CENTER = np.array([0.75, 0.3, 0.7])

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 
-from ksbo_mav.mav.param_cache import ParamHash, cache_dir, load, save
+from ksbo_mav.mav.params.cache import ParamHash, cache_dir, load, save
 
 ROWS = [("MPC_XY_P", 0.95, 9), ("COM_RCL_EXCEPT", 4.0, 6), ("MPC_Z_P", 1.0000000474974513, 9)]
 

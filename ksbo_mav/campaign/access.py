@@ -13,7 +13,8 @@ import numpy as np
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.link import Endpoint
-from ksbo_mav.mav.snapshot import Snapshot, fsync_write, load_snapshot, write_param_files
+from ksbo_mav.mav.params import Snapshot, load_snapshot, write_param_files
+from ksbo_mav.mav.params.snapshot import fsync_write
 from ksbo_mav.mav.stacks import autopilot_updated
 from ksbo_mav.mav.vehicle import Vehicle
 

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from ksbo_mav.errors import InputError
-from ksbo_mav.mav.snapshot import fsync_write
+from ksbo_mav.mav.params.snapshot import fsync_write
 
 #: Version of campaign.json written by this tool; older or newer files are refused with a message.
 FORMAT_VERSION = 2

@@ -15,7 +15,7 @@ from ksbo_mav.campaign.config import MissionRate
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.settings import MISSION_RATES_HZ
 from ksbo_mav.errors import PreflightError, VehicleError
-from ksbo_mav.mav.snapshot import fsync_write
+from ksbo_mav.mav.params.snapshot import fsync_write
 from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, probe_uplink,
                                     quiet_other_streams, verdict)
 from ksbo_mav.mav.vehicle import Vehicle

@@ -11,7 +11,7 @@ import numpy as np
 
 from ksbo_mav.campaign.config import CampaignConfig, prior_size
 from ksbo_mav.campaign.layout import CampaignDir
-from ksbo_mav.mav.snapshot import fsync_write
+from ksbo_mav.mav.params.snapshot import fsync_write
 
 
 def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any, x0: np.ndarray, bounds: np.ndarray,

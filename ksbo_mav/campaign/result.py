@@ -12,7 +12,7 @@ import numpy as np
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.summary import CampaignSummary
-from ksbo_mav.mav.snapshot import fsync_write
+from ksbo_mav.mav.params.snapshot import fsync_write
 
 
 def summarize(journal: Journal, result: Any, *, baseline_x: np.ndarray, base: dict[str, float], baseline_trial: int,

@@ -50,7 +50,7 @@ from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.linkcheck import LinkFigures
 from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.mav.objective import MavlinkObjective
-from ksbo_mav.mav.snapshot import load_snapshot
+from ksbo_mav.mav.params import load_snapshot
 from ksbo_mav.mav.vehicle import Vehicle
 
 

@@ -14,7 +14,7 @@ from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.link import Endpoint
-from ksbo_mav.mav.snapshot import load_snapshot, write_snapshot
+from ksbo_mav.mav.params import load_snapshot, write_snapshot
 from ksbo_mav.mav.vehicle import Vehicle
 
 

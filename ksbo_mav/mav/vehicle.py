@@ -25,8 +25,7 @@ from ksbo_mav.mav.gains import GainService
 from ksbo_mav.mav.guided import Guided
 from ksbo_mav.mav.link import Endpoint, Link
 from ksbo_mav.mav.mission import Mission
-from ksbo_mav.mav.param_ftp import CAPABILITY_FTP
-from ksbo_mav.mav.params import ParamClient
+from ksbo_mav.mav.params import CAPABILITY_FTP, ParamClient
 from ksbo_mav.mav.pilot import taken_over
 from ksbo_mav.mav.power import PowerWatch
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
@@ -61,7 +60,7 @@ class Vehicle:
         """Connect as ``sysid``/``compid`` (defaults: :data:`~ksbo_mav.mav.link.DEFAULT_SYSID` ...) and download
         every parameter: over MAVLink FTP when the autopilot advertises it and ``param_ftp``, else (or when that
         fails) by the PARAM protocol; with ``param_cache``, a vehicle that hashes its parameter set (PX4) and
-        still reports the hash of a set kept on disk is not asked for them again (:mod:`ksbo_mav.mav.param_cache`)."""
+        still reports the hash of a set kept on disk is not asked for them again (:mod:`ksbo_mav.mav.params.cache`)."""
         kwargs = {k: v for k, v in (("sysid", sysid), ("compid", compid)) if v is not None}
         link = Link(endpoint, **kwargs)
         try:

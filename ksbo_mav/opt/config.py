@@ -17,7 +17,7 @@ T = TypeVar("T")
 
 @dataclass(frozen=True)
 class SafeBOConfig:
-    """Settings of :class:`ksbo_mav.opt.safe_bo.SafeBO`.
+    """Settings of :class:`ksbo_mav.opt.methods.safe_bo.SafeBO`.
 
     Attributes:
         beta: safety multiplier: certified safe ⇔ μ − beta σ ≥ p_min.
@@ -85,7 +85,7 @@ class AdaptiveConfig:
             dimension, and before any fit the scale starts at ``safety_scale_bounds[0]`` (small steps first).
         trust_region: candidates stay in a box around the incumbent whose half-width grows ×``tr_grow`` after
             every ``tr_success`` trials that become the incumbent and shrinks ×``tr_shrink`` after an abort or
-            crash, which also resets the count (opt.trust_region).
+            crash, which also resets the count (opt.acquisition.trust_region).
         max_aborts: abort budget, a hard cap: once that many trials of the run aborted or crashed the run ends
             (so it is never exceeded). None = no cap.
         backup_beta: None = only certified queries (β), the paper's rule. A number enables exploration the
@@ -99,18 +99,19 @@ class AdaptiveConfig:
         refly_last: the last this many evaluations (at most a tenth of the budget) re-fly the ``refly_top`` best
             completed points (by the recommendation's criterion, and the best single flight); the recommendation
             is then the best mean over each point's flights (once any trial failed: the best expected score under
-            the failure model, and a candidate that failed is not re-flown; opt.recommend).
+            the failure model, and a candidate that failed is not re-flown; opt.methods.recommend).
         refly_stress: where the objective has a stress start (``fun.stress(x)``, e.g.
             :meth:`ksbo_mav.simulated.planar_objective.SimObjective.stress`, a planar MAVLink campaign's moving
             starts), the re-fly phase first flies each candidate once from it, and only candidates that pass are
-            re-flown and can be recommended (opt.refly): gains that fail from part of the starts fail there first.
-            An objective without ``stress`` (the copters) re-flies as usual. On in ``ksbo-adaptive`` (opt.options).
+            re-flown and can be recommended (opt.methods.refly): gains that fail from part of the starts fail there
+            first. An objective without ``stress`` (the copters) re-flies as usual. On in ``ksbo-adaptive``
+            (opt.options).
         reselect_every: every this many BO iterations ksbo re-selects its additive orders on the completed data
             by marginal likelihood (Algorithm 1 stays the first selection); 0 = never (the paper's once-only
             selection). ``ksbo`` and ``ksbo-adaptive`` default to 10 (opt.options).
         exclusion_growth, exclusion_max: the exclusion ball (``exclusion_radius``) of a bad trial grows
             ×``exclusion_growth`` (up to ``exclusion_max``) each time a later bad trial lands within twice its
-            radius (opt.exclusion); 1 = fixed balls. Fallbacks then avoid the balls too.
+            radius (opt.acquisition.exclusion); 1 = fixed balls. Fallbacks then avoid the balls too.
         failure_scale_shrink: each trial at new gains that aborts or crashes multiplies the safety lengthscales
             (learnt, or the fixed one with ``learn_safety_scale`` off) by this (a certified point failed: the GP
             claimed too much smoothness); 1 = off.
@@ -152,7 +153,7 @@ class AdaptiveConfig:
 
 @dataclass(frozen=True)
 class ModelConfig:
-    """GP priors (unit cube; see opt.model.ModelSpec): lengthscale, signal/noise scales, the safety GP.
+    """GP priors (unit cube; see opt.models.safety_model.ModelSpec): lengthscale, signal/noise scales, the safety GP.
 
     ``safety_kernel="se"`` makes an SE-ARD GP with ``safety_lengthscale`` certify every query as well.
     ``optimize_hypers``: ML-II on refits of the main GP.
@@ -170,7 +171,7 @@ class ModelConfig:
 
 @dataclass(frozen=True)
 class SelectionConfig:
-    """Kernel selection of ksbo (opt.selection): fixed ``orders`` skip it; ``top`` orders kept among
+    """Kernel selection of ksbo (opt.models.selection): fixed ``orders`` skip it; ``top`` orders kept among
     1..``max_order`` by ``trials`` repetitions of Algorithm 1 once ``min_select`` observations exist (else
     ``default_orders``); ``dims`` per-order dimension selection; ``select_at`` a C_ree re-selection after that
     many iterations; ``dropped`` what happens to unselected dimensions ("fixed" at x0 or "order1")."""

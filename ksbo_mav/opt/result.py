@@ -22,7 +22,7 @@ class OptimizeResult:
         n_aborted: trials the monitor aborted and the backup recovered (``fun`` returned an aborted Evaluation).
         n_crashed: trials that crashed (the backup did not recover).
         outcomes: (n,) "complete" / "aborted" / "crashed" per evaluation.
-        selection: typed kernel selection of the final model (:class:`ksbo_mav.opt.selection.KernelSelection`);
+        selection: typed kernel selection of the final model (:class:`ksbo_mav.opt.models.selection.KernelSelection`);
             ``info["selection"]`` is its first-selection dict.
         method: optimiser name.
         p_min: the safety threshold used.
@@ -56,7 +56,7 @@ class OptimizeResult:
     n_aborted: int = 0
     n_crashed: int = 0
     outcomes: tuple[str, ...] = ()
-    selection: Any = None  # ksbo_mav.opt.selection.KernelSelection of the final kernel (GP methods)
+    selection: Any = None  # ksbo_mav.opt.models.selection.KernelSelection of the final kernel (GP methods)
 
     @property
     def nfev(self) -> int:

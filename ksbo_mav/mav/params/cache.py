@@ -6,7 +6,7 @@ under that hash and count is the vehicle's set while the vehicle reports the sam
 of ~900 PARAM_VALUEs (23 s over a 4 kB/s radio, minutes over a lossy one). A set is saved only when the hash read
 after the download equals the one read before, so nothing changed while it came.
 
-ArduPilot has no such hash; there MAVLink FTP is the fast path (:mod:`ksbo_mav.mav.param_ftp`) and no cache is
+ArduPilot has no such hash; there MAVLink FTP is the fast path (:mod:`ksbo_mav.mav.params.ftp_download`) and no cache is
 kept.
 
 Files: ``<cache dir>/<stack>-<hash:08x>-<count>.json`` ({"names": [...], "values": [...], "types": [...]} in

@@ -1,65 +1,27 @@
-"""Parameter protocol (fact sheet section 2): complete download, read, set-and-verify, INT32 encodings.
+"""Parameter protocol (fact sheet section 2): complete download, read, set-and-verify.
 
-* Download: :mod:`ksbo_mav.mav.param_list` (re-requests missing indices while the link makes progress); the
-  result is only accepted when every index 0..count-1 arrived.
+* Download: :mod:`ksbo_mav.mav.params.list_download` (re-requests missing indices while the link makes progress);
+  the result is only accepted when every index 0..count-1 arrived.
 * Set: the PARAM_VALUE echo is the only acknowledgement. A set is verified when an echo with the same name
   carries the requested value (within float32 rounding); a timeout is retried, a wrong value is retried once more
   and then reported as refused. Unknown names get no answer at all from an autopilot, so they are refused
   *before* sending, from the downloaded list.
-* INT32 values travel in the float field either C-cast (ArduPilot) or bytewise (PX4, spec); the encoding is a
-  property of the stack (:mod:`ksbo_mav.mav.stacks`), never guessed from the value.
+* INT32 values travel in the float field either C-cast (ArduPilot) or bytewise (PX4, spec): the encoding is a
+  property of the stack (:mod:`ksbo_mav.mav.params.encoding`).
 """
 
 from __future__ import annotations
 
 import math
-import struct
 import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
-import numpy as np
-
+import ksbo_mav.mav.params.cache as param_cache
 from ksbo_mav.errors import InputError, VehicleError, VerifyError
-from ksbo_mav.mav import param_cache
 from ksbo_mav.mav.link import Link
-from ksbo_mav.mav.param_list import ParamListing, download_list
-
-REAL32, REAL64 = 9, 10
-#: MAV_PARAM_TYPE -> struct format of the integer inside the 4-byte param union (little-endian).
-_INT_FORMATS = {1: "<B", 2: "<b", 3: "<H", 4: "<h", 5: "<I", 6: "<i"}
-
-
-def encode(value: float, ptype: int, encoding: str) -> float:
-    """Value -> the float carried in PARAM_SET/PARAM_VALUE.param_value."""
-    if ptype not in _INT_FORMATS:
-        return float(value)
-    ival = int(round(value))
-    if encoding == "bytewise":
-        raw = struct.pack(_INT_FORMATS[ptype], ival).ljust(4, b"\0")
-        return struct.unpack("<f", raw)[0]
-    return float(ival)
-
-
-def decode(wire: float, ptype: int, encoding: str) -> float:
-    """param_value on the wire -> the parameter's value."""
-    if ptype not in _INT_FORMATS:
-        return float(wire)
-    if encoding == "bytewise":
-        fmt = _INT_FORMATS[ptype]
-        raw = struct.pack("<f", wire)[: struct.calcsize(fmt)]
-        return float(struct.unpack(fmt, raw)[0])
-    return float(wire)
-
-
-def same_value(a: float, b: float, ptype: int) -> bool:
-    """Equal as the vehicle stores them: integers exactly, REAL32 within float32 rounding."""
-    if not (math.isfinite(a) and math.isfinite(b)):
-        return False
-    if ptype in _INT_FORMATS:
-        return int(round(a)) == int(round(b))
-    fa, fb = float(np.float32(a)), float(np.float32(b))
-    return abs(fa - fb) <= 1e-6 * max(1.0, abs(fa))
+from ksbo_mav.mav.params.encoding import decode, encode, same_value
+from ksbo_mav.mav.params.list_download import ParamListing, download_list
 
 
 @dataclass
@@ -88,12 +50,12 @@ class ParamClient:
     def fetch_all(self, stall_s: float = 15.0, progress: Callable[[int, int], None] | None = None,
                   ftp: bool = False, cache: str | None = None) -> dict[str, Param]:
         """Download every parameter: with ``ftp`` first as one file over MAVLink FTP
-        (:mod:`ksbo_mav.mav.param_ftp`), else or when that fails by the PARAM protocol
-        (:func:`ksbo_mav.mav.param_list.download_list`: it keeps asking for missing indices while the link
+        (:mod:`ksbo_mav.mav.params.ftp_download`), else or when that fails by the PARAM protocol
+        (:func:`ksbo_mav.mav.params.list_download.download_list`: it keeps asking for missing indices while the link
         delivers, and gives up after ``stall_s`` seconds without a new one); :class:`VehicleError` unless every
         parameter arrived. ``last_download`` says how it went (``path``: "MAVLink FTP", "PARAM protocol" or
         "cache"). ``cache`` (a stack name): first ask the vehicle for its parameter hash and take the set saved
-        under it (:mod:`ksbo_mav.mav.param_cache`); after a download, save the set under that hash."""
+        under it (:mod:`ksbo_mav.mav.params.cache`); after a download, save the set under that hash."""
         self.ftp_failure = ""
         t0 = time.monotonic()
         h = param_cache.read_hash(self.link) if cache else None
@@ -110,7 +72,7 @@ class ParamClient:
 
     def _download(self, stall_s: float, progress: Callable[[int, int], None] | None, ftp: bool) -> None:
         if ftp:
-            from ksbo_mav.mav.param_ftp import download_ftp
+            from ksbo_mav.mav.params.ftp_download import download_ftp
 
             got, self.ftp_failure = download_ftp(self.link, progress=progress)
             if got is not None:

@@ -14,41 +14,16 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ksbo_mav.errors import InputError
-from ksbo_mav.mav.params import Param
+from ksbo_mav.jsonio import fsync_write
+from ksbo_mav.mav.params.client import Param
 
 SNAPSHOT_VERSION = 1
-
-
-def fsync_write(path: Path, text: str) -> None:
-    """Atomically replace ``path`` with ``text`` and make it durable."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    fsync_dir(path.parent)
-
-
-def fsync_dir(path: Path) -> None:
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
 def params_hash(values: dict[str, tuple[float, int]]) -> str:

@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ksbo_mav.opt.exclusion import Exclusion
-from ksbo_mav.opt.failure_model import FailureModel
+from ksbo_mav.opt.acquisition.exclusion import Exclusion
+from ksbo_mav.opt.acquisition.trust_region import TrustRegion
+from ksbo_mav.opt.models.failure_model import FailureModel
+from ksbo_mav.opt.models.surrogate import Surrogate
 from ksbo_mav.opt.observations import Observations
-from ksbo_mav.opt.surrogate import Surrogate
-from ksbo_mav.opt.trust_region import TrustRegion
 
 
 @dataclass

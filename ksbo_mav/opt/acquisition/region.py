@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ksbo_mav.opt.candidates import local_gaussian, sobol
-from ksbo_mav.opt.certificate import Certificate
-from ksbo_mav.opt.model import SafetyModel
+from ksbo_mav.opt.acquisition.candidates import local_gaussian, sobol
+from ksbo_mav.opt.acquisition.certificate import Certificate
+from ksbo_mav.opt.models.safety_model import SafetyModel
 from ksbo_mav.opt.observations import Observations
 
 #: Prior points this close (unit cube) to one of the optimiser's evaluations join its search region ("x0" mode).

@@ -2,59 +2,23 @@
 
 One global GP (SE-ARD, same prior scales as the other safe methods). Each line passes through the current
 recommendation x_b along a random direction (or cyclic coordinates); the 1-D problem is solved on a
-``line_points`` grid: the safe interval is the contiguous run of certified-safe grid points containing x_b; the
-query is the UCB maximiser on it unless the interval's end points (expanders) have a wider confidence interval
-than 2·β·σ at that maximiser. A line ends after ``line_budget`` queries or when the best UCB on it exceeds
-LCB(x_b) by less than 1 % of |μ(x_b)|. Unlike the original, x_b is not re-evaluated at the start of every line
-(that only serves its reporting and would spend budget).
+``line_points`` grid (opt.acquisition.lines): the safe interval is the contiguous run of certified-safe grid
+points containing x_b; the query is the UCB maximiser on it unless the interval's end points (expanders) have a
+wider confidence interval than 2·β·σ at that maximiser. A line ends after ``line_budget`` queries or when the
+best UCB on it exceeds LCB(x_b) by less than 1 % of |μ(x_b)|. Unlike the original, x_b is not re-evaluated at the
+start of every line (that only serves its reporting and would spend budget).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ksbo_mav.opt.build import build_safe_bo
-from ksbo_mav.opt.model import SafetyModel
+from ksbo_mav.opt.acquisition.lines import line_grid, line_query, safe_interval
+from ksbo_mav.opt.methods.build import bo_config, build_safe_bo, model_spec
+from ksbo_mav.opt.models.safety_model import SafetyModel
 from ksbo_mav.opt.options import Options
 from ksbo_mav.opt.problem import Problem, build_result
 from ksbo_mav.opt.result import OptimizeResult
-from ksbo_mav.opt.safe_methods import bo_config, model_spec
-
-
-def line_grid(x: np.ndarray, direction: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Points of the segment {x + s·direction} ∩ [0,1]^d on an n-point grid; returns s (n,), points (n, d)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = np.where(direction != 0, (0.0 - x) / direction, -np.inf)
-        t2 = np.where(direction != 0, (1.0 - x) / direction, np.inf)
-    lo = np.max(np.where(direction != 0, np.minimum(t1, t2), -np.inf))
-    hi = np.min(np.where(direction != 0, np.maximum(t1, t2), np.inf))
-    s = np.linspace(lo, hi, n)
-    s = np.unique(np.append(s, 0.0))  # x itself is on the grid
-    return s, np.clip(x[None, :] + s[:, None] * direction[None, :], 0.0, 1.0)
-
-
-def safe_interval(safe: np.ndarray, i0: int) -> tuple[int, int]:
-    """Inclusive index range of the run of True in ``safe`` (n,) containing ``i0``; (i0, i0) if ``safe[i0]`` is
-    False."""
-    if not safe[i0]:
-        return i0, i0
-    lo = i0
-    while lo > 0 and safe[lo - 1]:
-        lo -= 1
-    hi = i0
-    while hi < len(safe) - 1 and safe[hi + 1]:
-        hi += 1
-    return lo, hi
-
-
-def line_query(ucb: np.ndarray, sd: np.ndarray, lo: int, hi: int, i0: int) -> int:
-    """Grid index to query on the certified interval [lo, hi] ∋ i0 (LineBO's rule): the UCB maximiser, unless an
-    end of the interval (an expander) has a wider confidence interval than it."""
-    idx = np.arange(lo, hi + 1)
-    ia = int(idx[int(np.argmax(ucb[idx]))])
-    ends = [i for i in (lo, hi) if i != i0]
-    ie = max(ends, key=lambda i: sd[i], default=None)
-    return ie if ie is not None and sd[ie] > sd[ia] else ia
 
 
 def run_linebo(problem: Problem, opts: Options, seed: int | None) -> OptimizeResult:

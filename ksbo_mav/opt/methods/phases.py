@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ksbo_mav.opt.acquisition import (Acquisition, BoundaryExpansion, Posterior, PosteriorMean, SafeOptRule, SafeUCB,
-                                      WidestFeasible)
+from ksbo_mav.opt.acquisition.rules import (Acquisition, BoundaryExpansion, Posterior, PosteriorMean, SafeOptRule,
+                                            SafeUCB, WidestFeasible)
 
 #: The exploitation phase takes at most 1/EXPLOIT_SHARE of the budget; the boundary-expansion and the re-fly
 #: phases at most 1/PHASE_SHARE each (a 30-flight vehicle campaign keeps 21 flights for the search).

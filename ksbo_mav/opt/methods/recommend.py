@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ksbo_mav.opt.acquisition import Posterior
-from ksbo_mav.opt.certificate import Certificate
-from ksbo_mav.opt.model import SafetyModel
+from ksbo_mav.opt.acquisition.certificate import Certificate
+from ksbo_mav.opt.acquisition.rules import Posterior
+from ksbo_mav.opt.models.safety_model import SafetyModel
 from ksbo_mav.opt.observations import Observations
 
 #: The value a failed (aborted or crashed) flight counts with in :func:`expected_value`: the floor of the score.

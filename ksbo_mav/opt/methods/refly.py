@@ -9,7 +9,7 @@ held up, not the luckiest single flight.
   path, and one flight from there flags most of them and no robust gains.
 * :meth:`ReflyPhase.final_choice` — the candidate with the best mean over all its flights; once any trial failed,
   the best expected score under the failure model among the candidates, the model's choice and the best point
-  clear of failures (opt.recommend).
+  clear of failures (opt.methods.recommend).
 """
 
 from __future__ import annotations
@@ -19,10 +19,10 @@ from typing import Callable
 
 import numpy as np
 
-from ksbo_mav.opt.certificate import Certificate
+from ksbo_mav.opt.acquisition.certificate import Certificate
+from ksbo_mav.opt.methods.phases import PHASE_SHARE
+from ksbo_mav.opt.methods.recommend import best_expected, clear_choice
 from ksbo_mav.opt.observations import Observations
-from ksbo_mav.opt.phases import PHASE_SHARE
-from ksbo_mav.opt.recommend import best_expected, clear_choice
 
 #: The smoothed criterion at the data, computed when needed: () -> (n,) values.
 Criterion = Callable[[], np.ndarray]

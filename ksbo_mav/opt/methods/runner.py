@@ -4,17 +4,17 @@
   state machine (with censoring, aborted and crashed trials never enter the GPs as values: opt.observations).
 * ``max_aborts`` is a hard cap: once that many trials of the run aborted or crashed, the run ends (no further
   trial could be guaranteed not to abort); the recommendation is made from the data.
-* The re-fly phase (opt.refly) takes the last evaluations: the best candidates are re-flown (after a stress flight
-  each where the objective has ``fun.stress``), and the recommendation is the one that held up.
+* The re-fly phase (opt.methods.refly) takes the last evaluations: the best candidates are re-flown (after a stress
+  flight each where the objective has ``fun.stress``), and the recommendation is the one that held up.
 """
 
 from __future__ import annotations
 
 from typing import Callable
 
+from ksbo_mav.opt.methods.safe_bo import Proposal, SafeBO
 from ksbo_mav.opt.outcome import Outcome
 from ksbo_mav.opt.problem import Problem
-from ksbo_mav.opt.safe_bo import Proposal, SafeBO
 
 
 def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,

@@ -1,21 +1,24 @@
 """Safe Bayesian optimisation in the unit cube: a short loop over small parts, each owning its own state.
 
 * :class:`~ksbo_mav.opt.observations.Observations` — the trials (points, scores, outcomes).
-* :class:`~ksbo_mav.opt.surrogate.Surrogate` — the additive GP of the selected orders, the local SE-ARD safety
-  GP and the learned safety scale (opt.scale).
-* :class:`~ksbo_mav.opt.certificate.Certificate` — which points may be queried: LCB = μ − β σ ≥ p_min with σ the
-  *marginal* posterior std (a joint posterior over thousands of candidates is never formed), the exclusion balls,
-  the trust region and the failure model.
-* :class:`~ksbo_mav.opt.region.SearchRegion` — candidates: Gaussian clouds around certified observations (plus a
-  global Sobol set), refined by a constrained local search, so the safe region is reachable in 9-D.
-* :class:`~ksbo_mav.opt.phases.Phases` — the proposers: boundary expansion, safe UCB (or SafeOpt's rule), then
-  exploitation; the :class:`~ksbo_mav.opt.trust_region.TrustRegion` keeps them near the incumbent.
-* :class:`~ksbo_mav.opt.recommend.Recommender` and :class:`~ksbo_mav.opt.refly.ReflyPhase` — the recommendation.
+* :class:`~ksbo_mav.opt.models.surrogate.Surrogate` — the additive GP of the selected orders, the local SE-ARD
+  safety GP and the learned safety scale (opt.models.scale).
+* :class:`~ksbo_mav.opt.acquisition.certificate.Certificate` — which points may be queried: LCB = μ − β σ ≥ p_min
+  with σ the *marginal* posterior std (a joint posterior over thousands of candidates is never formed), the
+  exclusion balls, the trust region and the failure model.
+* :class:`~ksbo_mav.opt.acquisition.region.SearchRegion` — candidates: Gaussian clouds around certified
+  observations (plus a global Sobol set), refined by a constrained local search, so the safe region is reachable
+  in 9-D.
+* :class:`~ksbo_mav.opt.methods.phases.Phases` — the proposers: boundary expansion, safe UCB (or SafeOpt's rule),
+  then exploitation; the :class:`~ksbo_mav.opt.acquisition.trust_region.TrustRegion` keeps them near the
+  incumbent.
+* :class:`~ksbo_mav.opt.methods.recommend.Recommender` and :class:`~ksbo_mav.opt.methods.refly.ReflyPhase` — the
+  recommendation.
 
 If no candidate is certified the best-LCB observation is re-flown (a *fallback*); with a known-safe start this
 is always a point that was safe before. Aborted and crashed trials are censored when ``Observations.censor``:
 they enter the failure model and the exclusion balls, never the GPs as values. Build one with
-:func:`ksbo_mav.opt.build.build_safe_bo`.
+:func:`ksbo_mav.opt.methods.build.build_safe_bo`.
 """
 
 from __future__ import annotations
@@ -24,18 +27,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ksbo_mav.opt.acquisition import BoundaryExpansion
-from ksbo_mav.opt.candidates import refine
-from ksbo_mav.opt.certificate import Certificate
-from ksbo_mav.opt.model import SafetyModel
+from ksbo_mav.opt.acquisition.candidates import refine
+from ksbo_mav.opt.acquisition.certificate import Certificate
+from ksbo_mav.opt.acquisition.region import SearchRegion
+from ksbo_mav.opt.acquisition.rules import BoundaryExpansion
+from ksbo_mav.opt.acquisition.trust_region import TrustRegion
+from ksbo_mav.opt.methods.phases import Phases
+from ksbo_mav.opt.methods.recommend import Recommender
+from ksbo_mav.opt.methods.refly import ReflyPhase
+from ksbo_mav.opt.models.safety_model import SafetyModel
+from ksbo_mav.opt.models.surrogate import Surrogate
 from ksbo_mav.opt.observations import Observations
 from ksbo_mav.opt.outcome import Outcome
-from ksbo_mav.opt.phases import Phases
-from ksbo_mav.opt.recommend import Recommender
-from ksbo_mav.opt.refly import ReflyPhase
-from ksbo_mav.opt.region import SearchRegion
-from ksbo_mav.opt.surrogate import Surrogate
-from ksbo_mav.opt.trust_region import TrustRegion
 
 
 @dataclass
@@ -52,7 +55,7 @@ class Proposal:
 
 @dataclass(frozen=True)
 class Refinement:
-    """Constrained local refinement of the best ``starts`` candidates (opt.candidates.refine)."""
+    """Constrained local refinement of the best ``starts`` candidates (opt.acquisition.candidates.refine)."""
 
     starts: int = 8
     rounds: int = 4
@@ -147,13 +150,13 @@ class SafeBO:
             self.trust_region.update(outcome, done and y >= obs.p_min and moved and np.allclose(center, x))
             self.trust_region.center = center
 
-    # -- posterior (the acquisition rules' view: opt.acquisition.Posterior) ---------------------------------------
+    # -- posterior (the acquisition rules' view: opt.acquisition.rules.Posterior) --------------------------------------
     def bounds(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Posterior mean, marginal std, LCB and UCB at Z (m, d); four (m,) arrays (opt.certificate)."""
+        """Posterior mean, marginal std, LCB and UCB at Z (m, d); four (m,) arrays (opt.acquisition.certificate)."""
         return self.certificate.parts(self.surrogate, self.obs, Z)[:4]
 
     def feasible(self, Z: np.ndarray, lcb: np.ndarray) -> np.ndarray:
-        """(m,) bool: Z (m, d) with lower bounds ``lcb`` (m,) may be queried (opt.certificate)."""
+        """(m,) bool: Z (m, d) with lower bounds ``lcb`` (m,) may be queried (opt.acquisition.certificate)."""
         return self.certificate.feasible(self.obs, Z, lcb, self.trust_region)
 
     def safe_mask(self, Z: np.ndarray) -> np.ndarray:
@@ -214,7 +217,7 @@ class SafeBO:
 
     # -- recommendation -----------------------------------------------------------------------------------------
     def smoothed(self) -> tuple[np.ndarray, np.ndarray]:
-        """(n,) smoothed posterior mean and LCB at the data (opt.recommend)."""
+        """(n,) smoothed posterior mean and LCB at the data (opt.methods.recommend)."""
         return self.recommender.smoothed(self, self.model, self.obs)
 
     def criterion(self) -> np.ndarray:
@@ -222,11 +225,11 @@ class SafeBO:
         return self.recommender.pick(*self.smoothed())
 
     def recommend(self) -> tuple[int, float, float]:
-        """Data index of the model's recommended point with its smoothed mean and LCB (opt.recommend)."""
+        """Data index of the model's recommended point with its smoothed mean and LCB (opt.methods.recommend)."""
         return self.recommender.model_choice(self, self.model, self.obs, self.certificate)
 
     def final_choice(self) -> tuple[int, float, float]:
-        """The recommendation after the re-fly phase (opt.refly), with its smoothed mean and LCB."""
+        """The recommendation after the re-fly phase (opt.methods.refly), with its smoothed mean and LCB."""
         self.certificate.update_failures(self.obs)
         i = -1 if self.refly.eligible(self.obs) else self.recommend()[0]
         j = self.refly.final_choice(i, self.criterion, self.obs, self.certificate)

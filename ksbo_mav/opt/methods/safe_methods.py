@@ -1,7 +1,7 @@
 """The safe GP optimisers that differ only in their kernel: ``ksbo``, ``standard`` and ``safeopt``.
 
 * ``ksbo`` — the paper's method: additive kernel whose orders (and optionally dimensions) are selected on the
-  data available before BO (prior + start) with Algorithm 1 (C_ree), then safe BO (opt.safe_bo).
+  data available before BO (prior + start) with Algorithm 1 (C_ree), then safe BO (opt.methods.safe_bo).
 * ``standard`` — the same safe BO with the usual high-dimensional additive choice, orders {1, D}.
 * ``safeopt`` — SafeOpt's rule with a full SE-ARD GP (order-D additive kernel = product SE kernel).
 
@@ -22,62 +22,14 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.errors import UnsafeStartError
-from ksbo_mav.opt.build import build_safe_bo
-from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig, part
-from ksbo_mav.opt.model import ModelSpec, SafetyModel, active_mask
+from ksbo_mav.opt.methods.build import safe_bo_for
+from ksbo_mav.opt.methods.runner import run_safe_bo
+from ksbo_mav.opt.methods.safe_bo import SafeBO
+from ksbo_mav.opt.models.selection import KernelSelection, reselect_by_evidence, select_kernel
 from ksbo_mav.opt.options import Options
 from ksbo_mav.opt.outcome import Outcome
 from ksbo_mav.opt.problem import Problem, build_result
 from ksbo_mav.opt.result import OptimizeResult
-from ksbo_mav.opt.runner import run_safe_bo
-from ksbo_mav.opt.safe_bo import SafeBO
-from ksbo_mav.opt.selection import KernelSelection, reselect_by_evidence, select_kernel
-
-
-def bo_config(opts: Options) -> SafeBOConfig:
-    """The :class:`SafeBOConfig` part of ``opts``."""
-    cfg = part(opts, SafeBOConfig)
-    return cfg if isinstance(cfg.local_scales, tuple) else SafeBOConfig(**{**cfg.__dict__,
-                                                                          "local_scales": tuple(cfg.local_scales)})
-
-
-def model_spec(opts: Options, orders: tuple[int, ...], active_dims: tuple[int, ...] | None = None) -> ModelSpec:
-    """The :class:`ModelSpec` part of ``opts`` with the given kernel orders."""
-    return ModelSpec(
-        orders=tuple(int(r) for r in orders),
-        lengthscale=opts.lengthscale,
-        signal_std=opts.signal_std,
-        signal_scale=opts.signal_scale,
-        noise_std=opts.noise_std,
-        noise_ratio=opts.noise_ratio,
-        active_dims=active_dims,
-        optimize=opts.optimize_hypers,
-        dropped_in_order1=opts.dropped == "order1",
-    )
-
-
-def _build(
-    problem: Problem, opts: Options, orders: tuple[int, ...], dims: tuple[int, ...] | None, seed: int | None,
-    rng: np.random.Generator,
-) -> SafeBO:
-    d = problem.dim
-    orders = tuple(r for r in orders if 1 <= r <= d) or (d,)
-    spec = model_spec(opts, orders, dims)
-    if dims is not None:
-        # Orders above the number of active dimensions do not exist on the subspace.
-        spec = spec.with_(orders=tuple(r for r in orders if r <= len(dims)) or (len(dims),))
-    model = SafetyModel(spec, d, problem.p_min, seed=seed)
-    safety = None
-    if opts.safety_kernel == "se" and spec.orders != (d,):
-        # A local, product-SE GP must certify safety too: additive kernels keep a high correlation when one
-        # dimension changes a lot, which on a task with cliffs certifies unsafe gains (see BENCHMARKS.md).
-        sspec = model_spec(opts.update({"lengthscale": opts.safety_lengthscale}), (d,), None)
-        safety = SafetyModel(sspec, d, problem.p_min, seed=seed)
-    elif opts.safety_kernel not in ("same", "se"):
-        raise ValueError(f"unknown safety_kernel {opts.safety_kernel!r}")
-    return build_safe_bo(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
-                         safety_model=safety, n_prior=len(problem.prior_y), budget=problem.budget,
-                         adaptive=part(opts, AdaptiveConfig), stress=problem.can_stress)
 
 
 def _outcome_masks(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
@@ -113,7 +65,7 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
     info["selection"] = sel.as_dict()
     selections = [sel]
     rng = np.random.default_rng(seed)
-    bo = _build(problem, opts, sel.orders, sel.dims, seed, rng)
+    bo = safe_bo_for(problem, opts, sel.orders, sel.dims, seed, rng)
     bo.fit(X, y, done, crashed)
     every = opts.reselect_every if ksbo and opts.orders is None and sel.dims is None else 0
 
@@ -133,7 +85,7 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
         info["reselection"] = {**sel.as_dict(), "at_iteration": bo.iteration}
         fixed = opts.update({"signal_std": bo.model.signal_std, "noise_std": bo.model.noise_std})
         old = bo
-        bo = _build(problem, fixed, sel.orders, sel.dims, seed, rng)
+        bo = safe_bo_for(problem, fixed, sel.orders, sel.dims, seed, rng)
         bo.iteration, bo.fallbacks = old.iteration, old.fallbacks
         bo.fit(X, y, done, crashed)
         log += run_safe_bo(problem, bo, after=after)

@@ -12,7 +12,7 @@ import numpy as np
 from scipy.stats import norm
 
 from ksbo_mav.gp import AdditiveKernel, GaussianProcess
-from ksbo_mav.opt.candidates import local_gaussian, refine, sobol
+from ksbo_mav.opt.acquisition.candidates import local_gaussian, refine, sobol
 from ksbo_mav.opt.options import Options
 from ksbo_mav.opt.problem import Problem, build_result
 from ksbo_mav.opt.result import OptimizeResult

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ksbo_mav.opt.failure_model import learn_scales
-from ksbo_mav.opt.model import SafetyModel
+from ksbo_mav.opt.models.failure_model import learn_scales
+from ksbo_mav.opt.models.safety_model import SafetyModel
 
 
 @dataclass

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.opt.config import SelectionConfig
-from ksbo_mav.opt.model import SafetyModel
+from ksbo_mav.opt.models.safety_model import SafetyModel
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """The surrogate of the safe optimiser: the main GP (additive kernel of the selected orders), the optional local
 SE-ARD safety GP that must certify every query as well, and the acquisition GP of the learned safety scale.
 
-Kernel selection decides the main GP's orders (opt.selection); :meth:`Surrogate.switch_orders` swaps them when
+Kernel selection decides the main GP's orders (opt.models.selection); :meth:`Surrogate.switch_orders` swaps them when
 the orders are re-selected during the run.
 """
 
@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ksbo_mav.opt.model import SafetyModel
+from ksbo_mav.opt.models.safety_model import SafetyModel
+from ksbo_mav.opt.models.scale import SafetyScale
 from ksbo_mav.opt.observations import Observations
-from ksbo_mav.opt.scale import SafetyScale
 
 
 @dataclass
@@ -43,7 +43,7 @@ class Surrogate:
         return np.broadcast_to(np.asarray(m.spec.lengthscale, dtype=float), (self.dim,)).copy()
 
     def fit(self, obs: Observations, learn: bool, rng: np.random.Generator) -> None:
-        """Refit every GP on the GP data of ``obs``; with ``learn`` relearn the safety scale (opt.scale)."""
+        """Refit every GP on the GP data of ``obs``; with ``learn`` relearn the safety scale (opt.models.scale)."""
         Xc, yc = obs.gp_data()
         target = self.scale_target
         # relearn refits the scale model with its new lengthscales; a fit before that only fixes its signal and
