@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from bench_campaign import METHOD_OPTIONS
+from _bench_campaign_common import METHOD_OPTIONS
 
 
 def overhead(n_obs: int = 200, repeats: int = 5) -> dict[str, float]:

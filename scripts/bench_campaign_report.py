@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from _bench_common import machine
-from bench_campaign import ALL_NAMES, METHOD_OPTIONS, ROOT, TUNING, VARIANTS, parser
+from _bench_campaign_common import ALL_NAMES, METHOD_OPTIONS, ROOT, TUNING, VARIANTS, parser
 from bench_campaign_overhead import overhead
 
 FIG = ROOT / "docs" / "figures"
@@ -241,7 +241,7 @@ def report(args) -> None:
 
 
 if __name__ == "__main__":
-    args = parser().parse_args(sys.argv[1:])
+    args = parser(__doc__).parse_args(sys.argv[1:])
     args.out = args.out.resolve()
     args.out.mkdir(parents=True, exist_ok=True)
     report(args)

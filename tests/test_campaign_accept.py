@@ -7,7 +7,7 @@ import json
 import pytest
 
 from ksbo_mav.campaign.access import accept_campaign
-from ksbo_mav.campaign.confirm import confirm_failures
+from ksbo_mav.campaign.ending import confirm_failures
 from ksbo_mav.campaign.journal import JournalEntry
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.link import Endpoint

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import json
 
+from ksbo_mav.campaign.ending import write_result
 from ksbo_mav.campaign.layout import FORMAT_VERSION, CampaignDir
-from ksbo_mav.campaign.result import write_result
 from ksbo_mav.campaign.summary import CampaignSummary
 
 

@@ -159,3 +159,13 @@ def test_only_the_entry_points_import_the_safe_bo_loop() -> None:
 def test_no_module_outgrows_about_300_lines() -> None:
     long = {m: n for m, p in MODULES.items() if (n := len(p.read_text().splitlines())) > MAX_LINES}
     assert long == {}
+
+
+def test_the_flying_code_never_imports_the_report() -> None:
+    """The report reads a finished (or stopped) campaign back from disk: only the end of a campaign, the runner that
+    orders it and the commands that show a campaign import it, never the trial loop or anything it flies with."""
+    report = "ksbo_mav.campaign.report"
+    users = {m for m, deps in GRAPH.items() if not (m == report or m.startswith(report + "."))
+             and any(d == report or d.startswith(report + ".") for d in deps)}
+    assert users and users <= {"ksbo_mav.campaign.ending", "ksbo_mav.campaign.runner", "ksbo_mav.cli.report",
+                               "ksbo_mav.cli.tune"}, sorted(users)

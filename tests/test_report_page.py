@@ -174,8 +174,8 @@ def test_report_command_regenerates_the_page_and_refuses_a_non_campaign(campaign
 
 def test_text_on_the_page_is_escaped(campaign):
     from ksbo_mav.campaign.layout import CampaignDir
-    from ksbo_mav.campaign.report_page import render
-    from ksbo_mav.campaign.trial_rows import read_campaign
+    from ksbo_mav.campaign.report.page import render
+    from ksbo_mav.campaign.report.rows import read_campaign
 
     d, _ = campaign
     rec = read_campaign(CampaignDir.at(d), rms=False)
@@ -240,7 +240,7 @@ def test_a_crashed_confirmation_is_counted_and_the_verdict_says_not_confirmed(tm
     assert summary.n_crashed == 1 and summary.plots["safety"] != "none"
     # The console's name of each trial is the report's (the first optimiser trial is "baseline" in both).
     from ksbo_mav.campaign.layout import CampaignDir
-    from ksbo_mav.campaign.trial_rows import read_campaign
+    from ksbo_mav.campaign.report.rows import read_campaign
 
     rows = read_campaign(CampaignDir.at(d), rms=False).rows
     assert roles == {r.trial: r.role for r in rows if r.trial in roles} and roles[0] == "baseline"

@@ -10,11 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.params import Snapshot, load_snapshot, write_param_files
-from ksbo_mav.mav.params.snapshot import fsync_write
 from ksbo_mav.mav.stacks import autopilot_updated
 from ksbo_mav.mav.vehicle import Vehicle
 
@@ -35,7 +34,7 @@ def write_accepted(d: CampaignDir, base: dict[str, float], best: dict[str, float
     types = {n: v.params.table[n].ptype for n in best}
     write_param_files(d.accepted_stem, best, types, v.identity.sysid, v.identity.compid)
     lines = [f"{n:<16} {base[n]:>14.7g} -> {best[n]:<14.7g} ({(best[n] - base[n]):+.4g})" for n in best]
-    fsync_write(d.diff, "\n".join(["# parameter     baseline -> accepted", *lines]) + "\n")
+    write_file(d.diff, "\n".join(["# parameter     baseline -> accepted", *lines]) + "\n")
 
 
 def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], None] = print,
@@ -70,7 +69,7 @@ def accept_campaign(path: str | Path, endpoint: Endpoint, log: Callable[[str], N
     if failed and not force:
         raise InputError(f"the recommended gains failed {len(failed)} of {len(result['best']['P_confirm_all'])} "
                          f"confirmation flight(s) ({'; '.join(failed)}); not written. --force writes them anyway")
-    snap = load_snapshot(d.root)
+    snap = load_snapshot(d.snapshot)
     v = Vehicle.connect(endpoint, snap.profile, sysid=sysid, compid=compid, timeout=timeout, log=log)
     try:
         check_identity(snap, v)

@@ -1,21 +1,44 @@
-"""How a campaign leaves the vehicle: the baseline (or, accepted, the best) gains verified, then landed and
-disarmed or holding."""
+"""The end of a campaign: the recommended gains flown again (confirmation flights), the vehicle left with the
+baseline (or, accepted, the best) gains verified, then landed and disarmed or holding, and ``result.json`` written
+once, atomically, with the report drawn beside it."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
+from typing import Any
+
+import numpy as np
 
 from ksbo_mav.campaign.access import write_accepted
-from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.journal import JournalEntry
+from ksbo_mav.campaign.layout import CampaignDir, write_file
+from ksbo_mav.campaign.summary import CampaignSummary
+from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.errors import VehicleError
 from ksbo_mav.mav.pilot import tool_modes
 from ksbo_mav.mav.vehicle import Vehicle
 
 
+def fly_confirmations(trials: TrialLoop, best: np.ndarray, n: int) -> list[float]:
+    """P of ``n`` confirmation flights of ``best`` (d,): the journalled ones (a resume), then new ones."""
+    confirms = [e.P for e in trials.journal.of("confirm")]
+    for _ in range(len(confirms), n):
+        confirms.append(trials.fly(best, "confirm").P)
+    return confirms
+
+
+def confirm_failures(confirms: list[JournalEntry]) -> list[str]:
+    """Why the recommended gains should not be left on the vehicle: one line per confirmation flight that was
+    aborted, crashed or scored P < 0 (empty: every confirmation flight completed safely, or there was none)."""
+    return [f"confirmation trial {e.trial}: {e.outcome.text}" if e.outcome != "ok" else
+            f"confirmation trial {e.trial}: P = {e.P:.3f} < 0" for e in confirms if e.outcome != "ok" or e.P < 0]
+
+
 def leave_gains(v: Vehicle, d: CampaignDir, accept: bool, base: dict[str, float], best: dict[str, float],
                 failures: list[str], log: Callable[[str], None]) -> bool:
     """At the end of a campaign: write the ``best`` parameters ({autopilot parameter name: value}) when ``accept``
-    and no confirmation flight failed (``failures``: :func:`~ksbo_mav.campaign.confirm.confirm_failures`), else
+    and no confirmation flight failed (``failures``: :func:`confirm_failures`), else
     the baseline ``base``; verified by a fresh read either way. Returns whether the best gains were accepted.
     Gains that failed a confirmation flight are never left on the vehicle by themselves."""
     accepted = accept and not failures
@@ -75,3 +98,15 @@ def end_flight(v: Vehicle, end: str, error: bool, log: Callable[[str], None]) ->
     except (VehicleError, KeyboardInterrupt) as exc:
         log(f"could not land/hold the vehicle: {exc}; it is now under its own failsafes - take over")
         return "unknown"
+
+
+def write_result(d: CampaignDir, summary: CampaignSummary, profile: Any, log: Callable[[str], None]) -> None:
+    """Draw the report plots into ``summary.plots`` (a plotting problem is logged, never hides the result), then
+    write ``result.json`` (temporary file, fsync, rename)."""
+    try:
+        from ksbo_mav.campaign.report.writer import write_report
+
+        summary.plots = write_report(d, profile, summary.to_dict())
+    except Exception as exc:  # a plotting problem must never hide the tuning result
+        log(f"report plots failed: {exc}")
+    write_file(d.result, json.dumps(summary.to_dict(), indent=1))

@@ -8,16 +8,21 @@ gains — pilot, link, telemetry, a slow client: kept for the record, never give
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from ksbo_mav.campaign.layout import append_line
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.outcome import TrialOutcome
 from ksbo_task.flight import Flight
 
 KINDS = ("opt", "prior", "confirm", "failed", "baseline")
+#: Role of each journal kind when nothing more specific applies (:func:`trial_role`).
+ROLE = {"opt": "optimiser", "prior": "prior", "confirm": "confirmation", "failed": "interrupted",
+        "baseline": "baseline re-flight"}
 
 
 @dataclass(frozen=True)
@@ -31,7 +36,7 @@ class JournalEntry:
     restored: bool
     rms: float | None = None  # 3-D missions: lap-2 RMS tracking error (m)
     stress: bool = False  # flown from the hardest start (the optimiser's refly_stress re-flights)
-    cond: dict[str, Any] | None = None  # wind, battery voltage, flight index (ksbo_mav.campaign.conditions)
+    cond: dict[str, Any] | None = None  # wind, battery voltage, flight index (ksbo_mav.campaign.drift)
 
     @classmethod
     def of(cls, kind: str, f: Flight) -> "JournalEntry":
@@ -89,10 +94,7 @@ class Journal:
                 self.entries.append(JournalEntry.parse(doc, f"{path}:{n}"))
 
     def append(self, entry: JournalEntry) -> None:
-        with open(self.path, "a") as fh:
-            fh.write(entry.to_json() + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
+        append_line(self.path, entry.to_json())
         self.entries.append(entry)
 
     def of(self, kind: str) -> list[JournalEntry]:
@@ -100,3 +102,18 @@ class Journal:
 
     def has_trial(self, trial: int) -> bool:
         return any(e.trial == trial for e in self.entries)
+
+
+def trial_role(e: JournalEntry, x0: np.ndarray, flown: list[JournalEntry]) -> str:
+    """What trial ``e`` was, in words the console and the report share: ``x0`` the baseline gains (optimiser
+    units), ``flown`` the optimiser's trials journalled before it. The journal's kinds lump these together: the
+    optimiser's first evaluation is the baseline, a later optimiser trial at the baseline's gains is a baseline
+    re-flight, one at an earlier trial's gains a re-flight of that trial."""
+    if e.kind != "opt":
+        return ROLE[e.kind]
+    if not flown:
+        return "baseline"
+    if np.allclose(e.x, x0, rtol=1e-6, atol=1e-9):
+        return "baseline re-flight"
+    same = [f.trial for f in flown if np.allclose(e.x, f.x, rtol=1e-6, atol=1e-9)]
+    return f"re-flight of trial {same[0]}" if same else ROLE["opt"]

@@ -1,25 +1,35 @@
-"""The campaign directory: the one place that knows its file names and reads/writes ``campaign.json``.
+"""The campaign directory: the one place that knows its file and folder names, and the one way the campaign
+writes them (:func:`write_file` replaces a file atomically and durably, :func:`append_line` appends a fsynced
+line); it reads and writes ``campaign.json`` itself.
 
 ::
 
     campaign.json            versioned settings: config, profile, baseline, x0, optimiser bounds, identity
     snapshot/vehicle.*       every parameter before the first write (.param, .params, .json with hash)
+    link.json                the link check's figures: the campaign's start and each resume
     prior.json               the kernel-selection prior (simulator episodes), reused on resume
     journal.jsonl            one line per flown trial, appended and fsynced before the optimiser sees the value
+    widen.jsonl              one line per widening of the search box, before a trial flies in it
+    drift.json               the drift test's verdict, once it fired
     trials/trial_NNN.*       two-way tlog + JSON record of every trial
-    result.json, report/     recommendation, before/after, plots
+    result.json              recommendation, before/after, safety counts
+    report/                  index.html and its plots (NAME.png)
     accepted.param/.params, diff.txt   written on accept
 """
 
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ksbo_mav.errors import InputError
-from ksbo_mav.mav.params.snapshot import fsync_write
+from ksbo_mav.jsonio import fsync_write
+
+#: Suffix of a trial's two-way telemetry log, beside its JSON record (``trials/trial_NNN.tlog``).
+TLOG_SUFFIX = ".tlog"
 
 #: Version of campaign.json written by this tool; older or newer files are refused with a message.
 FORMAT_VERSION = 2
@@ -44,12 +54,29 @@ class CampaignDir:
         return self.root / "snapshot" / "vehicle"
 
     @property
+    def snapshot(self) -> Path:
+        """The snapshot's JSON file (identity, every parameter, checksum)."""
+        return self.snapshot_stem.with_suffix(".json")
+
+    @property
+    def link(self) -> Path:
+        return self.root / "link.json"
+
+    @property
     def prior(self) -> Path:
         return self.root / "prior.json"
 
     @property
     def journal(self) -> Path:
         return self.root / "journal.jsonl"
+
+    @property
+    def widen_log(self) -> Path:
+        return self.root / "widen.jsonl"
+
+    @property
+    def drift(self) -> Path:
+        return self.root / "drift.json"
 
     @property
     def trials(self) -> Path:
@@ -64,6 +91,14 @@ class CampaignDir:
         return self.root / "report"
 
     @property
+    def report_page(self) -> Path:
+        return self.report / "index.html"
+
+    def report_plot(self, name: str) -> Path:
+        """``report/NAME.png``: one of the report's plots (convergence, gains, trajectory, safety, conditions)."""
+        return self.report / f"{name}.png"
+
+    @property
     def accepted_stem(self) -> Path:
         return self.root / "accepted"
 
@@ -73,6 +108,14 @@ class CampaignDir:
 
     def trial_stem(self, index: int) -> Path:
         return self.trials / f"trial_{index:03d}"
+
+    def trial_tlog(self, index: int) -> Path:
+        return self.trial_stem(index).with_suffix(TLOG_SUFFIX)
+
+    @staticmethod
+    def tlog_of(record: str | Path) -> Path:
+        """The tlog written beside a trial's JSON ``record`` (the path its journal entry names)."""
+        return Path(record).with_suffix(TLOG_SUFFIX)
 
     def exists(self) -> bool:
         """Whether a campaign was started here (settings or journal on disk)."""
@@ -85,7 +128,7 @@ class CampaignDir:
 
     # --- campaign.json -------------------------------------------------------------------------------------------
     def write_settings(self, doc: dict[str, Any]) -> None:
-        fsync_write(self.config, json.dumps({"format": FORMAT_VERSION, **doc}, indent=1))
+        write_file(self.config, json.dumps({"format": FORMAT_VERSION, **doc}, indent=1))
 
     def read_settings(self) -> dict[str, Any]:
         """campaign.json, checked: InputError (one line) for a missing, unreadable or foreign-version file."""
@@ -111,3 +154,18 @@ class CampaignDir:
             return json.loads(self.result.read_text())
         except (OSError, json.JSONDecodeError):
             raise InputError(f"{self.root} has no readable result.json (campaign not finished?)") from None
+
+
+def write_file(path: Path, text: str) -> None:
+    """Replace ``path`` (a file of a campaign directory) with ``text``, atomically and durably: after a crash it holds
+    the old text or the new one, never a mix."""
+    fsync_write(path, text)
+
+
+def append_line(path: Path, line: str) -> None:
+    """Append ``line`` and a newline to ``path`` and fsync it: once this returns, the line survives a crash (a
+    process killed mid-write leaves at most a half last line, which the readers skip)."""
+    with open(path, "a") as fh:
+        fh.write(line + "\n")
+        fh.flush()
+        os.fsync(fh.fileno())

@@ -12,10 +12,9 @@ import time
 from collections.abc import Callable
 
 from ksbo_mav.campaign.config import MissionRate
-from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.campaign.settings import MISSION_RATES_HZ
 from ksbo_mav.errors import PreflightError, VehicleError
-from ksbo_mav.mav.params.snapshot import fsync_write
 from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, probe_uplink,
                                     quiet_other_streams, verdict)
 from ksbo_mav.mav.vehicle import Vehicle
@@ -137,9 +136,9 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
 
 def record_link(d: CampaignDir, fig: LinkFigures) -> None:
     """Append the figures to ``link.json`` (a list: the campaign's start and each resume)."""
-    path = d.root / "link.json"
+    path = d.link
     try:
         old = json.loads(path.read_text()) if path.is_file() else []
     except (OSError, ValueError):
         old = []
-    fsync_write(path, json.dumps([*old, {"at": time.strftime("%Y-%m-%dT%H:%M:%S"), **fig.to_dict()}], indent=1))
+    write_file(path, json.dumps([*old, {"at": time.strftime("%Y-%m-%dT%H:%M:%S"), **fig.to_dict()}], indent=1))

@@ -10,8 +10,7 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.campaign.config import CampaignConfig, prior_size
-from ksbo_mav.campaign.layout import CampaignDir
-from ksbo_mav.mav.params.snapshot import fsync_write
+from ksbo_mav.campaign.layout import CampaignDir, write_file
 
 
 def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any, x0: np.ndarray, bounds: np.ndarray,
@@ -28,7 +27,7 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
         n = prior_size(cfg, kind)
         X = local_prior_design(n, x0, bounds, cfg.seed, radius=SIM_PRIOR_RADIUS)
         what, y = simulated_prior(profile, X, cfg.seed, log)
-        fsync_write(d.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist()}))
+        write_file(d.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist()}))
         log(f"prior: {n} {what} episodes around the baseline (in process, nothing flown)")
         return X, y
     n = prior_size(cfg, kind)

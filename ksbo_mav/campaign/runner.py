@@ -24,22 +24,20 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.campaign.battery import BatteryGuard, await_failsafe, failsafe_active, failsafe_message
-from ksbo_mav.campaign.conditions import ConditionWatch
-from ksbo_mav.campaign.drift import DriftWatch
+from ksbo_mav.campaign.drift import ConditionWatch, DriftWatch
 from ksbo_mav.campaign.config import CampaignConfig, MissionRate, optimizer_options, prior_kind, settle
-from ksbo_mav.campaign.confirm import confirm_failures, fly_confirmations
-from ksbo_mav.campaign.ending import end_flight, leave_gains, safe_stop
+from ksbo_mav.campaign.ending import (confirm_failures, end_flight, fly_confirmations, leave_gains, safe_stop,
+                                      write_result)
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.mission_rate import fly_at, record_link
 from ksbo_mav.campaign.plan import campaign_plan
 from ksbo_mav.campaign.prior import campaign_prior
-from ksbo_mav.campaign.report import write_report
-from ksbo_mav.campaign.result import summarize, write_result
+from ksbo_mav.campaign.report.writer import write_report
 from ksbo_mav.campaign.resume import check_unchanged
 from ksbo_mav.campaign.search import search
 from ksbo_mav.campaign.setup import baseline_params, connect, create_campaign
-from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
+from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent, summarize
 from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.campaign.warm_start import Earlier, warm_search
 from ksbo_mav.campaign.widen import widen_search

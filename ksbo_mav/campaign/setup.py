@@ -33,7 +33,7 @@ def baseline_params(v: Vehicle, d: CampaignDir, resume: bool, log: Callable[[str
     another vehicle) and restores them if the vehicle holds others (an interrupted trial); a new campaign takes the
     vehicle's current ones, refused outside the profile's search box."""
     if resume:
-        snap = load_snapshot(d.root)
+        snap = load_snapshot(d.snapshot)
         check_identity(snap, v)
         base = snap.baseline()
         current = {n: v.params.read(n) for n in base}

@@ -9,10 +9,9 @@ from dataclasses import replace
 import numpy as np
 
 from ksbo_mav.campaign.battery import BatteryGuard
-from ksbo_mav.campaign.conditions import ConditionWatch
-from ksbo_mav.campaign.drift import DriftWatch
+from ksbo_mav.campaign.drift import ConditionWatch, DriftWatch, save_drift
 from ksbo_mav.campaign.journal import Journal, JournalEntry
-from ksbo_mav.campaign.report_conditions import save_drift
+from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.summary import TrialEvent
 from ksbo_mav.errors import CampaignPaused, PreflightError, TrialInterrupted, TrialStopped, VehicleError
 from ksbo_mav.mav.objective import MavlinkObjective
@@ -34,6 +33,11 @@ class TrialLoop:
         self.x0: np.ndarray | None = None
         self.conditions: ConditionWatch | None = None  # wind, voltage and flight index with each entry
         self.check_on_resume = False  # a resumed campaign re-flies the baseline before its next trial
+
+    @property
+    def _dir(self) -> CampaignDir:
+        """The campaign directory (the objective writes its trial files into its ``trials`` folder)."""
+        return CampaignDir(self.objective.out_dir.parent)
 
     def fly(self, x: np.ndarray, kind: str, stress: bool = False) -> Flight:
         """One trial of journal ``kind``, journalled; flown again (up to :data:`RETRIES` times) when this computer
@@ -113,10 +117,10 @@ class TrialLoop:
             try:
                 drift.confirm(self.journal)  # CampaignPaused (stop mode) when the vehicle changed
             except CampaignPaused:
-                save_drift(self.objective.out_dir.parent, drift.message(self.journal), drift.on_drift)
+                save_drift(self._dir, drift.message(self.journal), drift.on_drift)
                 raise
             if drift.fired:  # continue mode, fired just now
-                save_drift(self.objective.out_dir.parent, drift.fired, drift.on_drift)
+                save_drift(self._dir, drift.fired, drift.on_drift)
                 self.log(f"{drift.fired}; continuing with every trial scored against the baseline as re-flown, "
                          "carried along its trend")
         if drift.fired:
@@ -148,7 +152,7 @@ class TrialLoop:
     def _stop_changed(self, msg: str) -> CampaignPaused:
         """The stop for a changed vehicle (either drift mode), its message kept with the campaign for the report."""
         assert self.drift is not None
-        save_drift(self.objective.out_dir.parent, msg, "stop")
+        save_drift(self._dir, msg, "stop")
         return self.drift.paused(msg)
 
     def fly_baseline(self, x0: np.ndarray) -> int:

@@ -72,7 +72,7 @@ class Earlier:
 def warm_search(trials: Any, cfg: Any, vehicle: Any, x0: np.ndarray, log: Callable[[str], None]
                 ) -> tuple[Any, Any, list, np.ndarray]:
     """(prior, optimiser result, unused journal entries, box) of a warm-started campaign (the baseline is flown)."""
-    from ksbo_mav.campaign.stage import search_box
+    from ksbo_mav.campaign.search import search_box
 
     earlier = Earlier(cfg.warm_start)
     box = earlier.bounds

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -26,10 +25,9 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.campaign.box_edge import edge_hits
-from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.layout import CampaignDir, append_line
 from ksbo_mav.errors import InputError
 
-WIDEN_LOG = "widen.jsonl"
 #: Optimiser options of a widening stage (over the campaign's): a stage is a few trials, so at most its last one
 #: re-flies a candidate (ksbo-adaptive's default re-flies its last 9), and no trust region around the incumbent
 #: (its initial 0.1 of the box would not reach the new part; the certificate still bounds each step).
@@ -82,7 +80,7 @@ class WidenStep:
 
 def read_steps(d: CampaignDir) -> list[WidenStep]:
     """The journalled widening steps of the campaign in ``d`` (none when it never widened)."""
-    path = d.root / WIDEN_LOG
+    path = d.widen_log
     if not path.exists():
         return []
     lines = [ln for ln in path.read_text().splitlines() if ln.strip()]
@@ -99,10 +97,7 @@ def read_steps(d: CampaignDir) -> list[WidenStep]:
 
 
 def append_step(d: CampaignDir, step: WidenStep) -> None:
-    with open(d.root / WIDEN_LOG, "a") as fh:
-        fh.write(step.to_json() + "\n")
-        fh.flush()
-        os.fsync(fh.fileno())
+    append_line(d.widen_log, step.to_json())
 
 
 def next_box(x: np.ndarray, best: np.ndarray | None, bounds: np.ndarray, limits: np.ndarray, names: list[str],
@@ -151,7 +146,7 @@ def widen_search(trials: Any, cfg: Any, vehicle: Any, d: CampaignDir, bounds: np
                  result: Any, unused: list, log: Callable[[str], None]) -> tuple[Any, list, np.ndarray]:
     """Widen the box while the recommendation ends on a bound that may move (see the module docstring). Returns
     the final (result, unused journal entries, bounds)."""
-    from ksbo_mav.campaign.stage import search_box
+    from ksbo_mav.campaign.search import search_box
 
     tr = vehicle.profile.trust_region
     limits, names = documented_range(vehicle.profile), vehicle.profile.names
@@ -185,16 +180,3 @@ def widen_search(trials: Any, cfg: Any, vehicle: Any, d: CampaignDir, bounds: np
             return result, unused, bounds
         result, unused = new_result, unused + more
     return result, unused, bounds
-
-
-def widened_record(d: CampaignDir, rec: Any, profile: Any) -> tuple[Any, np.ndarray | None, list[Move]]:
-    """For the report: the campaign record ``rec`` with its final (widened) box, the limits a bound may reach in
-    the vehicle's units (the documented range once the campaign widened, else the profile's box; None without the
-    profile) and every bound that moved."""
-    steps = read_steps(d)
-    fits = profile is not None and profile.dim == len(rec.names)
-    if not steps:
-        return rec, (profile.bounds / rec.scale[:, None] if fits else None), []
-    rec = dataclasses.replace(rec, settings={**rec.settings, "bounds": steps[-1].bounds})
-    return rec, (documented_range(profile) / rec.scale[:, None] if fits else None), \
-        [m for s in steps for m in s.moves]

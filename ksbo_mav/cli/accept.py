@@ -21,12 +21,11 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from ksbo_mav.campaign import accept_campaign
+    from ksbo_mav.campaign import CampaignDir, accept_campaign
 
     best = accept_campaign(args.dir, endpoint_from_args(args), log=lambda s: print(s), timeout=args.timeout,
                             sysid=args.sysid, compid=args.compid, force=args.force)
-    print(Path(args.dir, "diff.txt").read_text(), end="")
-    print(f"accepted {len(best)} gain(s); exported {Path(args.dir, 'accepted.param')} and .params")
+    d = CampaignDir.at(args.dir)
+    print(d.diff.read_text(), end="")
+    print(f"accepted {len(best)} gain(s); exported {d.accepted_stem.with_suffix('.param')} and .params")
     return 0

@@ -61,7 +61,7 @@ def confirmation_log(campaign: Path) -> Path:
     confirms = [e for e in Journal(cd.journal).of("confirm") if e.outcome.value == "ok"]
     if not confirms:
         raise InputError(f"campaign {campaign} has no completed confirmation flight to compare with")
-    tlog = cd.trial_stem(confirms[-1].trial).with_suffix(".tlog")
+    tlog = cd.trial_tlog(confirms[-1].trial)
     if not tlog.exists():
         raise InputError(f"the confirmation flight's log {tlog} is missing")
     return tlog

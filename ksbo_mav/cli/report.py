@@ -18,7 +18,7 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ksbo_mav.campaign.layout import CampaignDir
-    from ksbo_mav.campaign.report import box_edge_lines, write_report
+    from ksbo_mav.campaign.report.writer import box_edge_lines, write_report
     from ksbo_mav.errors import InputError
 
     d = CampaignDir.at(args.dir)

@@ -168,7 +168,7 @@ def print_summary(s: Any, log) -> None:
         f"{s.n_crashed}, failed for reasons unrelated to the gains {s.n_failed}; {s.wall_s:.0f} s")
     for name, v in t["values"].items():
         log(f"  {name:<16} {b['values'][name]:>12.6g} -> {v:<12.6g}")
-    from ksbo_mav.campaign.report import box_edge_lines
+    from ksbo_mav.campaign.report.writer import box_edge_lines
 
     for line in box_edge_lines(s.dir, s.to_dict()):
         log(f"search box: {line}")

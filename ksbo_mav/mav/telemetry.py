@@ -24,7 +24,7 @@ from ksbo_mav.mav.link import Link
 
 MSG_ATTITUDE, MSG_LPN, MSG_ACTUATOR = 30, 32, 375
 MSG_SYS_STATUS, MSG_BATTERY_STATUS = 1, 147  # the pack, at 1 Hz (ksbo_mav.mav.power)
-MSG_WIND, MSG_WIND_COV = 168, 231  # the wind estimate, at 1 Hz (ksbo_mav.campaign.conditions)
+MSG_WIND, MSG_WIND_COV = 168, 231  # the wind estimate, at 1 Hz (ksbo_mav.campaign.drift)
 
 
 

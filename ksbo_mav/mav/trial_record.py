@@ -16,10 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.jsonio import dumps
+from ksbo_mav.jsonio import dumps, fsync_write
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.outcome import TrialOutcome as T
-from ksbo_mav.mav.params.snapshot import fsync_write
 from ksbo_mav.mav.trial_flight import FlownTrial, LinkStats
 from ksbo_task.flight import Flight, Trajectory
 

@@ -1,34 +1,15 @@
 """The report's view of a vehicle that changes: the baseline flights (first and re-flights) and the conditions
-each trial flew in (wind, battery voltage), over the campaign, and the drift test's verdict in plain words."""
+each trial flew in (wind, battery voltage), over the campaign, and every trial judged against the baseline flown
+in its own condition. (The drift test's verdict itself is :func:`ksbo_mav.campaign.drift.load_drift`.)"""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
-from ksbo_mav.campaign.trial_rows import CampaignRecord
+from ksbo_mav.campaign.report.rows import CampaignRecord
 from ksbo_mav.plotting import pyplot
-
-#: Where a campaign keeps the drift test's verdict once it fired (read by the report).
-DRIFT_FILE = "drift.json"
-
-
-def save_drift(root: Path, message: str, mode: str) -> None:
-    """Keep the drift test's message with the campaign (the report says it)."""
-    (Path(root) / DRIFT_FILE).write_text(json.dumps({"message": message, "on_drift": mode}) + "\n")
-
-
-def load_drift(root: Path) -> str | None:
-    p = Path(root) / DRIFT_FILE
-    try:
-        doc = json.loads(p.read_text())
-    except (OSError, ValueError):
-        return None
-    then = ("campaign stopped" if doc.get("on_drift") == "stop"
-            else "campaign went on, scored against the re-flown baseline")
-    return f"{doc.get('message', '')} ({then})"
 
 
 def plot_conditions(rec: CampaignRecord, path: Path) -> str | None:

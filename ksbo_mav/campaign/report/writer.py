@@ -8,6 +8,7 @@ confirmation and interrupted trials alike).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -16,9 +17,9 @@ import numpy as np
 
 from ksbo_mav.campaign.box_edge import EdgeHit, edge_hits
 from ksbo_mav.campaign.layout import CampaignDir
-from ksbo_mav.campaign.report_plots import plot_convergence, plot_gains, plot_safety
-from ksbo_mav.campaign.trial_rows import CampaignRecord, read_campaign, trajectory
-from ksbo_mav.campaign.widen import widened_record
+from ksbo_mav.campaign.report.plots import plot_convergence, plot_gains, plot_safety
+from ksbo_mav.campaign.report.rows import CampaignRecord, read_campaign, trajectory
+from ksbo_mav.campaign.widen import Move, documented_range, read_steps
 
 #: How many of the best flown trials back up (or not) a box-edge note.
 NEAR_BEST = 5
@@ -41,6 +42,20 @@ def campaign_profile(settings: dict[str, Any]) -> Any | None:
         return load_profile(settings["config"].get("profile") or settings["profile"])
     except (KsboError, OSError, KeyError, AttributeError):
         return None
+
+
+def widened_record(d: CampaignDir, rec: CampaignRecord, profile: Any
+                   ) -> tuple[CampaignRecord, np.ndarray | None, list[Move]]:
+    """The campaign record ``rec`` with its final (widened) box, the limits a bound may reach in
+    the vehicle's units (the documented range once the campaign widened, else the profile's box; None without the
+    profile) and every bound that moved."""
+    steps = read_steps(d)
+    fits = profile is not None and profile.dim == len(rec.names)
+    if not steps:
+        return rec, (profile.bounds / rec.scale[:, None] if fits else None), []
+    rec = dataclasses.replace(rec, settings={**rec.settings, "bounds": steps[-1].bounds})
+    return rec, (documented_range(profile) / rec.scale[:, None] if fits else None), \
+        [m for s in steps for m in s.moves]
 
 
 def box_edges(rec: CampaignRecord, best_x: Any, profile: Any | None, limits: Any = None) -> list[EdgeHit]:
@@ -96,17 +111,17 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     index.html embeds them. ``result``: the campaign's summary (default: result.json); ``profile``: the vehicle
     profile (default: the one the campaign names), for the profile's own gain limits.
     """
-    from ksbo_mav.campaign.report_conditions import load_drift, plot_conditions, same_condition
-    from ksbo_mav.campaign.report_page import write_page
+    from ksbo_mav.campaign.drift import load_drift
+    from ksbo_mav.campaign.report.conditions import plot_conditions, same_condition
+    from ksbo_mav.campaign.report.page import write_page
 
     d = d if isinstance(d, CampaignDir) else CampaignDir.at(d)
     d.report.mkdir(parents=True, exist_ok=True)
     rec = read_campaign(d)
     result = result if result is not None else load_result(d)
-    link = d.root / "link.json"
-    if result is not None and link.is_file():  # the link check's figures, for the verdict
+    if result is not None and d.link.is_file():  # the link check's figures, for the verdict
         try:
-            result = {**result, "link": json.loads(link.read_text())[-1]}
+            result = {**result, "link": json.loads(d.link.read_text())[-1]}
         except (OSError, ValueError, IndexError):
             pass
     profile = profile if profile is not None else campaign_profile(rec.settings)
@@ -114,19 +129,19 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     rec, limits, moves = widened_record(d, rec, profile)
     hits = box_edges(rec, best_x, profile, limits) if best_x is not None else []
     paths: dict[str, str] = {
-        "convergence": plot_convergence(rec, d.report / "convergence.png"),
+        "convergence": plot_convergence(rec, d.report_plot("convergence")),
         "gains": plot_gains(rec, None if best_x is None else rec.to_params(best_x), limits, hits,
-                            d.report / "gains.png"),
+                            d.report_plot("gains")),
     }
-    traj = _trajectory_plot(rec, d.report / "trajectory.png")
+    traj = _trajectory_plot(rec, d.report_plot("trajectory"))
     if traj:
         paths["trajectory"] = traj
-    paths["safety"] = plot_safety(rec, d.report / "safety.png") or "none"
-    paths["conditions"] = plot_conditions(rec, d.report / "conditions.png") or "none"
-    drift, same = load_drift(d.root), same_condition(rec)
+    paths["safety"] = plot_safety(rec, d.report_plot("safety")) or "none"
+    paths["conditions"] = plot_conditions(rec, d.report_plot("conditions")) or "none"
+    drift, same = load_drift(d), same_condition(rec)
     if drift:
         result = {**(result or {}), "drift": drift}
     if same:
         result = {**(result or {}), "same_condition": same}
-    paths["page"] = str(write_page(d.report / "index.html", rec, result, [*moves, *hits], paths))
+    paths["page"] = str(write_page(d.report_page, rec, result, [*moves, *hits], paths))
     return paths

@@ -17,7 +17,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ksbo_mav.campaign.box_edge import EdgeHit
-from ksbo_mav.campaign.trial_rows import SAFETY, CampaignRecord, TrialRow
+from ksbo_mav.campaign.report.rows import SAFETY, CampaignRecord, TrialRow
 
 #: Plots in the order the page shows them, with their captions.
 PLOTS = (

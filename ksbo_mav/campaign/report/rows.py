@@ -1,27 +1,22 @@
 """The campaign's flown trials as report rows: console number, role, gains, P, lap RMS, outcome.
 
-Read back from the campaign directory (journal, settings, tlogs), so the report shows what was logged. Roles tell
-apart what the journal's kinds lump together: the optimiser's first evaluation is the baseline, a later optimiser
-trial at the baseline's gains is a baseline re-flight, one at an earlier trial's gains a re-flight of that trial.
+Read back from the campaign directory (journal, settings, tlogs), so the report shows what was logged. A row's
+role is :func:`~ksbo_mav.campaign.journal.trial_role`, the words the console uses too.
 """
 
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ksbo_mav.campaign.journal import Journal, JournalEntry
+from ksbo_mav.campaign.journal import Journal, JournalEntry, trial_role
 from ksbo_mav.campaign.layout import CampaignDir
 
 #: The four ways safety is counted (never lumped together).
 SAFETY = ("unsafe (P < 0)", "aborted by the monitor", "crashed", "interrupted (not the gains)")
-#: Role of each journal kind when nothing more specific applies.
-ROLE = {"opt": "optimiser", "prior": "prior", "confirm": "confirmation", "failed": "interrupted",
-        "baseline": "baseline re-flight"}
 
 
 @dataclass(frozen=True)
@@ -119,19 +114,6 @@ def read_campaign(d: CampaignDir, rms: bool = True) -> CampaignRecord:
     return CampaignRecord(settings, rows, names, scale)
 
 
-def trial_role(e: JournalEntry, x0: np.ndarray, flown: list[JournalEntry]) -> str:
-    """What trial ``e`` was, in words the console and the report share: ``x0`` the baseline gains (optimiser
-    units), ``flown`` the optimiser's trials journalled before it."""
-    if e.kind != "opt":
-        return ROLE[e.kind]
-    if not flown:
-        return "baseline"
-    if np.allclose(e.x, x0, rtol=1e-6, atol=1e-9):
-        return "baseline re-flight"
-    same = [f.trial for f in flown if np.allclose(e.x, f.x, rtol=1e-6, atol=1e-9)]
-    return f"re-flight of trial {same[0]}" if same else ROLE["opt"]
-
-
 def _rms(e: JournalEntry) -> float | None:
     """Lap-2 RMS position error: journalled for 3-D missions, recomputed from the tlog for the planar one; none for
     an interrupted trial (its flight says nothing about the gains, e.g. setpoints sent late)."""
@@ -154,5 +136,5 @@ def trajectory(record: str) -> tuple[Any, dict[str, Any]]:
     from ksbo_mav.mav.tlog import read_tlog
     from ksbo_mav.mav.trajectory import trajectory_from_tlog
 
-    traj, info, _ = trajectory_from_tlog(read_tlog(Path(record).with_suffix(".tlog")))
+    traj, info, _ = trajectory_from_tlog(read_tlog(CampaignDir.tlog_of(record)))
     return traj, info
