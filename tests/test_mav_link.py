@@ -7,7 +7,7 @@ import pytest
 from mav_tune_helpers import baseline, fresh_read, sim_and_endpoint
 
 from ksbo_mav.cli import main
-from ksbo_mav.cli.demo import free_udp_port
+from ksbo_sim.process import free_udp_port
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.link import parse_endpoint
 

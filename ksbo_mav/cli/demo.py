@@ -14,8 +14,6 @@ from ksbo_mav.errors import VehicleError
 from ksbo_sim.errors import SimStartError
 from ksbo_sim.process import SimProcess, free_udp_port
 
-__all__ = ["SimProcess", "add_parser", "free_udp_port", "run"]  # SimProcess/free_udp_port: moved to ksbo_sim.process
-
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser("demo", help="tune the built-in simulator over MAVLink/UDP end to end (minutes)",

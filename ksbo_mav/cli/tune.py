@@ -98,8 +98,9 @@ class Display:
     def update(self, e: Any) -> None:
         f = e.flight
         mark = "ok" if f.outcome == "ok" else f"ABORT {f.outcome}"
-        # One line of at most 80 columns: P < 0 / aborted by the monitor / crashed / failed (not the gains).
-        self.console.print(f"{e.kind:>7} trial {f.meta['trial']:3d}  P {f.P:+.4f} {mark:<12} best {e.best_P:+.4f}  "
+        # The trial's role in the report's words (baseline, re-flight of trial 6, ...), then P and the counts:
+        # P < 0 / aborted by the monitor / crashed / failed (not the gains).
+        self.console.print(f"trial {f.meta['trial']:3d} {e.role:<21} P {f.P:+.4f} {mark:<12} best {e.best_P:+.4f}  "
                            f"P<0 {e.n_unsafe} abort {e.n_aborted} crash {e.n_crashed} fail {e.n_failed}",
                            highlight=False, markup=False, soft_wrap=True)
         if self.task is not None:
@@ -165,7 +166,8 @@ def print_summary(s: Any, log) -> None:
     log(f"after:  P = {pc:+.4f}  (recommended gains re-flown; model mean {t['P_model']:+.4f})"
         if pc is not None else f"after:  model mean P = {t['P_model']:+.4f}")
     log(f"trials {s.n_trials}: unsafe (P < 0) {s.n_unsafe}, aborted by the monitor {s.n_aborted}, crashed "
-        f"{s.n_crashed}, failed for reasons unrelated to the gains {s.n_failed}; {s.wall_s:.0f} s")
+        f"{s.n_crashed}, failed for reasons unrelated to the gains {s.n_failed}; {s.wall_s:.0f} s "
+        "for the prior, the trials and the confirmation")
     for name, v in t["values"].items():
         log(f"  {name:<16} {b['values'][name]:>12.6g} -> {v:<12.6g}")
     from ksbo_mav.campaign.report.writer import box_edge_lines
