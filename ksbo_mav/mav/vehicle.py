@@ -28,6 +28,7 @@ from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.params import CAPABILITY_FTP, ParamClient
 from ksbo_mav.mav.pilot import taken_over
 from ksbo_mav.mav.power import PowerWatch
+from ksbo_mav.mav.signing import needs_key
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
 from ksbo_mav.mav.telemetry import Telemetry
 from ksbo_mav.mav.wire import mavlink
@@ -68,7 +69,10 @@ class Vehicle:
             cmd = Commander(link)
             ver = cmd.request_message(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, "AUTOPILOT_VERSION")
             if ver is None:
-                raise VehicleError("the vehicle did not answer REQUEST_MESSAGE(AUTOPILOT_VERSION)")
+                raise VehicleError(needs_key(link)
+                                   or "the vehicle did not answer REQUEST_MESSAGE(AUTOPILOT_VERSION)")
+            if needs_key(link):
+                log("the vehicle signs its link but answers unsigned commands here (a USB port?)")
             ident = Identity(sysid=link.target_system, compid=link.target_component, autopilot=int(hb.autopilot),
                              vehicle_type=int(hb.type), vendor_id=int(ver.vendor_id), product_id=int(ver.product_id),
                              flight_sw_version=int(ver.flight_sw_version), capabilities=int(ver.capabilities),
@@ -140,6 +144,8 @@ class Vehicle:
         self.had_control = True
 
     def _still_ours(self, hb: Any) -> None:
+        if self.is_sim and not hb.base_mode & 128:
+            return  # ksbo-mav sim disarms a crashed vehicle and re-arms it at home by design: no pilot did that
         why = taken_over(self.stack, hb) if self.had_control else None
         if why:
             raise PilotTookOver(why)
