@@ -1,0 +1,220 @@
+-- ksbo_guard.lua: ksbo-mav's onboard guard for tuning trials on ArduCopter.
+--
+-- The tuner flies trial gains from the ground; if its link dies mid-trial, nothing on the ground can put the
+-- baseline back. This script keeps that promise on the vehicle. While a trial is armed (KSG_STATE = 1, written
+-- by the tuner) it checks, ten times a second:
+--   * the tuner's heartbeat (gcs:last_seen(): heartbeats from the system id in MAV_GCS_SYSID / SYSID_MYGCS),
+--   * the profile's box (north, east, height above the EKF origin) and tilt,
+--   * the flight mode (GUIDED) and that the vehicle is still armed.
+-- On a breach it writes the baseline gains back (saved, so a reboot keeps them), switches to BRAKE and, after
+-- BRAKE_HOLD_MS, to SAFE_MODE (the pilot's own mode change is never overridden: gains only), sets
+-- KSG_STATE = 2 and KSG_TRIP to the reason, and says so in a STATUSTEXT.
+--
+-- Protocol (docs: ksbo_mav/mav/onboard_guard.py):
+--   KSG_STATE  0 idle, 1 trial armed (tuner writes 1 / 0), 2 tripped, 3 arming refused (guard writes)
+--   KSG_TRIP   why: 0 none, 1 link lost, 2 box, 3 tilt, 4 pilot mode change, 5 disarmed, 6 no position
+--   NAMED_VALUE_FLOAT KSG_ALIVE = state, KSG_CFG = CONFIG_ID, twice a second.
+--
+-- The tuner renders the block between the CONFIG markers (the gain names with their baseline values, the
+-- limits, the modes) before it uploads the script. As shipped the list of gains is empty and the guard refuses
+-- to arm: an unrendered copy can do nothing.
+
+-- KSBO_CONFIG_BEGIN
+local CONFIG_ID = 0
+local GAINS = {}
+local LINK_TIMEOUT_MS = 3000
+local X_MAX, Y_MAX, Z_MIN, Z_MAX = 0, 0, 0, 0
+local TILT_MAX_DEG = 0
+local BRAKE_ACCEL = 0
+local GUIDED_MODE, BRAKE_MODE, SAFE_MODE, LAND_MODE = 4, 17, 5, 9
+local BRAKE_HOLD_MS = 2000
+-- KSBO_CONFIG_END
+
+local PARAM_TABLE_KEY = 87
+local IDLE, ARMED, TRIPPED, REFUSED = 0, 1, 2, 3
+local LINK, BOX, TILT, PILOT, DISARMED, NO_POSITION = 1, 2, 3, 4, 5, 6
+local TICK_MS, ALIVE_MS = 100, 500
+
+assert(param:add_table(PARAM_TABLE_KEY, "KSG_", 2), "ksbo guard: could not add the KSG_ parameter table")
+assert(param:add_param(PARAM_TABLE_KEY, 1, "STATE", 0), "ksbo guard: could not add KSG_STATE")
+assert(param:add_param(PARAM_TABLE_KEY, 2, "TRIP", 0), "ksbo guard: could not add KSG_TRIP")
+-- A reboot or a script restart never starts armed (the tuner's PARAM_SET saved KSG_STATE).
+param:set("KSG_STATE", IDLE)
+
+local state = IDLE
+local brake_since = nil
+local last_alive = 0
+
+local function now_ms()
+  return millis():tofloat()
+end
+
+local function send_alive()
+  gcs:send_named_float("KSG_ALIVE", state)
+  gcs:send_named_float("KSG_CFG", CONFIG_ID)
+  last_alive = now_ms()
+end
+
+local function set_state(s, reason)
+  state = s
+  param:set("KSG_STATE", s)
+  if reason then
+    param:set("KSG_TRIP", reason)
+  end
+  send_alive()
+end
+
+local function restore_gains()
+  local failed = 0
+  for _, g in ipairs(GAINS) do
+    if not param:set_and_save(g[1], g[2]) then
+      failed = failed + 1
+    end
+  end
+  return failed
+end
+
+-- Stop the vehicle where it is: BRAKE, else the safe mode, else LAND.
+local function stop_vehicle()
+  if vehicle:set_mode(BRAKE_MODE) then
+    brake_since = now_ms()
+    return "BRAKE"
+  end
+  if vehicle:set_mode(SAFE_MODE) then
+    return "mode " .. SAFE_MODE
+  end
+  if vehicle:set_mode(LAND_MODE) then
+    return "LAND"
+  end
+  return "NO mode change"
+end
+
+-- A STATUSTEXT carries 50 characters: the texts are kept short enough for "KSG: <why>; gains back; BRAKE".
+local function trip(reason, text, take_control)
+  local failed = restore_gains()
+  local gains = failed == 0 and "gains back" or string.format("%d gains NOT back", failed)
+  local action = take_control and ("; " .. stop_vehicle()) or ""
+  set_state(TRIPPED, reason)
+  gcs:send_text(failed == 0 and 2 or 1, string.format("KSG: %s; %s%s", text, gains, action))
+end
+
+-- Why a trial must not be armed now, or nil.
+local function refusal()
+  if #GAINS == 0 then
+    return "no gains configured"
+  end
+  if not arming:is_armed() then
+    return "vehicle disarmed"
+  end
+  if vehicle:get_mode() ~= GUIDED_MODE then
+    return "not in GUIDED"
+  end
+  local seen = gcs:last_seen():tofloat()
+  if seen == 0 or now_ms() - seen > LINK_TIMEOUT_MS then
+    return "no heartbeat from MAV_GCS_SYSID"
+  end
+  return nil
+end
+
+-- get_roll_rad/get_pitch_rad replaced get_roll/get_pitch (which now warn once); older firmware has only those.
+local HAS_RAD = pcall(function() return ahrs:get_roll_rad() end)
+local function tilt_deg()
+  local roll = HAS_RAD and ahrs:get_roll_rad() or ahrs:get_roll()
+  local pitch = HAS_RAD and ahrs:get_pitch_rad() or ahrs:get_pitch()
+  return math.deg(math.max(math.abs(roll), math.abs(pitch)))
+end
+
+local function outside_box()
+  local p = ahrs:get_relative_position_NED_origin()
+  if not p then
+    return NO_POSITION, "no position estimate"
+  end
+  local north, east, up = p:x(), p:y(), -p:z()
+  if BRAKE_ACCEL > 0 then
+    local v = ahrs:get_velocity_NED()
+    if v then
+      local k = 1 / (2 * BRAKE_ACCEL)
+      north = north + v:x() * math.abs(v:x()) * k
+      east = east + v:y() * math.abs(v:y()) * k
+      up = up - v:z() * math.abs(v:z()) * k
+    end
+  end
+  if math.abs(north) > X_MAX then
+    return BOX, string.format("|north| %.1f>%.1f m", math.abs(north), X_MAX)
+  end
+  if math.abs(east) > Y_MAX then
+    return BOX, string.format("|east| %.1f>%.1f m", math.abs(east), Y_MAX)
+  end
+  if up < Z_MIN or up > Z_MAX then
+    return BOX, string.format("up %.1f m out of %.0f..%.0f", up, Z_MIN, Z_MAX)
+  end
+  local tilt = tilt_deg()
+  if tilt > TILT_MAX_DEG then
+    return TILT, string.format("tilt %.0f>%.0f deg", tilt, TILT_MAX_DEG)
+  end
+  return nil
+end
+
+local function watch()
+  if not arming:is_armed() then
+    trip(DISARMED, "disarmed", false)
+    return
+  end
+  if vehicle:get_mode() ~= GUIDED_MODE then
+    trip(PILOT, "pilot mode change", false)
+    return
+  end
+  local seen = gcs:last_seen():tofloat()
+  local silent = now_ms() - seen
+  if silent > LINK_TIMEOUT_MS then
+    trip(LINK, string.format("link lost %.1f s", silent / 1000), true)
+    return
+  end
+  local reason, text = outside_box()
+  if reason then
+    trip(reason, text, true)
+  end
+end
+
+local function update()
+  local wanted = param:get("KSG_STATE")
+  if state == ARMED then
+    if wanted == IDLE then
+      set_state(IDLE)
+    else
+      watch()
+    end
+  elseif wanted == ARMED and state ~= ARMED then
+    local why = refusal()
+    if why then
+      set_state(REFUSED)
+      gcs:send_text(4, "KSG: trial not armed: " .. why)
+    else
+      set_state(ARMED, 0)
+      gcs:send_text(6, "KSG: trial armed")
+    end
+  elseif wanted == IDLE and state ~= IDLE then
+    set_state(IDLE)
+  end
+  if brake_since and now_ms() - brake_since > BRAKE_HOLD_MS then
+    if vehicle:get_mode() == BRAKE_MODE then
+      vehicle:set_mode(SAFE_MODE)
+    end
+    brake_since = nil
+  end
+  if now_ms() - last_alive >= ALIVE_MS then
+    send_alive()
+  end
+end
+
+-- An error must not silently end the guard: report it and keep running.
+local function protected()
+  local ok, err = pcall(update)
+  if not ok then
+    gcs:send_text(0, "KSG: error: " .. tostring(err))
+  end
+  return protected, TICK_MS
+end
+
+gcs:send_text(6, string.format("KSG: guard running, config %d, %d gains", CONFIG_ID, #GAINS))
+return protected, TICK_MS
