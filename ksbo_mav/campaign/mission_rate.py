@@ -134,11 +134,14 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     return fig
 
 
-def record_link(d: CampaignDir, fig: LinkFigures) -> None:
-    """Append the figures to ``link.json`` (a list: the campaign's start and each resume)."""
+def record_link(d: CampaignDir, fig: LinkFigures, on_link_loss: str | None = None) -> None:
+    """Append the figures to ``link.json`` (a list: the campaign's start and each resume), with what the vehicle
+    does if the link dies mid-trial (``on_link_loss``, PX4: :mod:`ksbo_mav.campaign.link_loss`)."""
     path = d.link
     try:
         old = json.loads(path.read_text()) if path.is_file() else []
     except (OSError, ValueError):
         old = []
-    write_file(path, json.dumps([*old, {"at": time.strftime("%Y-%m-%dT%H:%M:%S"), **fig.to_dict()}], indent=1))
+    record = {"at": time.strftime("%Y-%m-%dT%H:%M:%S"), **fig.to_dict(),
+              **({"on_link_loss": on_link_loss} if on_link_loss else {})}
+    write_file(path, json.dumps([*old, record], indent=1))

@@ -30,6 +30,7 @@ from ksbo_mav.campaign.ending import (confirm_failures, end_flight, fly_confirma
                                       write_result)
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.link_loss import LinkLossChoice, check_link_loss
 from ksbo_mav.campaign.mission_rate import fly_at, record_link
 from ksbo_mav.campaign.plan import campaign_plan
 from ksbo_mav.campaign.prior import campaign_prior
@@ -68,8 +69,11 @@ class Campaign:
 
     def __init__(self, cfg: CampaignConfig, endpoint: Endpoint, *, resume: bool = False,
                  log: Callable[[str], None] = print, progress: Callable[[TrialEvent], None] | None = None,
-                 connect_timeout: float = 15.0, on_settled: Callable[[CampaignConfig], None] | None = None) -> None:
+                 connect_timeout: float = 15.0, on_settled: Callable[[CampaignConfig], None] | None = None,
+                 link_loss: LinkLossChoice = LinkLossChoice()) -> None:
         self.cfg, self.endpoint, self.resume, self.log = cfg, endpoint, resume, log
+        self.link_loss = link_loss  # the pilot's say on a link a loss of which leaves trial gains flying (PX4)
+        self.on_link_loss: str | None = None  # what the vehicle does then, once read from it
         self.progress = progress or (lambda event: None)
         self.on_settled = on_settled or (lambda cfg: None)
         self.connect_timeout = connect_timeout
@@ -89,6 +93,7 @@ class Campaign:
         try:
             base = baseline_params(v, self.dir, False, self.log) if not self.resume else \
                 load_snapshot(self.dir.root).baseline()
+            check_link_loss(v, self.link_loss, self.log)
             return campaign_plan(v, self.cfg, self.dir, base)
         finally:
             v.close()
@@ -130,6 +135,7 @@ class Campaign:
         start's match. Returns the link's figures."""
         assert self.rate is not None
         link = fly_at(v, self.rate, self.log)
+        self.on_link_loss = check_link_loss(v, self.link_loss, self.log)
         self.base = baseline_params(v, self.dir, self.resume, self.log)
         check_moving_start(v.mission, limits_from_profile(v.profile, self.cfg.safety))
         optimizer_options("none", self.cfg.options, self.cfg.method, v.profile)  # gain names: before flying
@@ -141,7 +147,7 @@ class Campaign:
         """A new campaign's snapshot and settings (the directory exists from here on); the link's figures."""
         if not self.resume:
             create_campaign(self.dir, self.cfg, v, self.base, self.log)
-        record_link(self.dir, link)
+        record_link(self.dir, link, self.on_link_loss)
 
     def _trials(self, v: Vehicle) -> TrialLoop:
         """The journalled trial loop with its watches (battery, drift, flight conditions)."""

@@ -87,8 +87,8 @@ def to_json(obj: Any) -> str:
     return dumps(obj, indent=2)
 
 
-def add_connection_args(p: argparse.ArgumentParser) -> None:
-    """Vehicle connection options shared by tune / restore / accept."""
+def add_connection_args(p: argparse.ArgumentParser) -> Any:
+    """Vehicle connection options shared by tune / restore / accept; returns their group."""
     g = p.add_argument_group("connection (exactly one)")
     g.add_argument("--udp", metavar="HOST:PORT", help="listen for the vehicle on UDP, as a ground station does")
     g.add_argument("--udp-out", metavar="HOST:PORT", help="send to a vehicle that listens on UDP (we talk first)")
@@ -98,9 +98,16 @@ def add_connection_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--compid", type=int, default=None, help="our MAVLink component id (default 191)")
     g.add_argument("--timeout", type=positive_float, default=15.0, metavar="S",
                    help="seconds to wait for the vehicle's first heartbeat (default: %(default)g)")
+    g.add_argument("--signing-key", metavar="FILE", help="a vehicle that signs its link (MAVLink 2 signing): its "
+                   "key, 32 raw bytes or a passphrase line (default: the file $KSBO_SIGNING_KEY_FILE names)")
+    return g
 
 
 def endpoint_from_args(args: argparse.Namespace):
-    from ksbo_mav.mav.link import parse_endpoint
+    from dataclasses import replace
 
-    return parse_endpoint(udp=args.udp, udpout=args.udp_out, tcp=args.tcp, serial=args.serial)
+    from ksbo_mav.mav.link import parse_endpoint
+    from ksbo_mav.mav.signing import key_from
+
+    endpoint = parse_endpoint(udp=args.udp, udpout=args.udp_out, tcp=args.tcp, serial=args.serial)
+    return replace(endpoint, signing=key_from(getattr(args, "signing_key", None)))

@@ -35,7 +35,11 @@ def add_parser(subparsers) -> None:
                     "hold) and writes the report DIR/report/index.html. Ctrl-C aborts the trial, restores the "
                     "baseline and lands. Every option is checked before anything is connected or written; the "
                     "settings, their defaults and allowed values: docs/settings.md.")
-    add_connection_args(p)
+    g = add_connection_args(p)
+    g.add_argument("--accept-link-loss-risk", action="store_true", help="PX4 on a link away from the vehicle (a "
+                   "radio): fly anyway, although a lost link leaves the trial gains flying in PX4's failsafe")
+    g.add_argument("--link-is-radio", action="store_true", help="treat this link as a radio even though it looks "
+                   "local (a relay of a radio that sends no RADIO_STATUS)")
     g = p.add_argument_group(GROUPS[1])
     g.add_argument("dir", nargs="?", metavar="DIR", help="a new campaign's directory: snapshot, journal, trial logs, "
                    "report")
@@ -189,12 +193,14 @@ def print_summary(s: Any, log) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ksbo_mav.campaign import Campaign
+    from ksbo_mav.campaign.link_loss import LinkLossChoice
 
     cfg = config_from_args(args)
     endpoint = endpoint_from_args(args)
     display = Display()
     camp = Campaign(cfg, endpoint, resume=bool(args.resume), log=display.log, progress=display.update,
-                    connect_timeout=args.timeout, on_settled=display.settled)
+                    connect_timeout=args.timeout, on_settled=display.settled,
+                    link_loss=LinkLossChoice(args.accept_link_loss_risk, args.link_is_radio))
     if args.dry_run:
         print(camp.dry_run())
         print("dry run: nothing was written to the vehicle or to disk")

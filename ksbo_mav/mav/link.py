@@ -13,10 +13,11 @@ import contextlib
 import io
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from ksbo_mav.errors import InputError, VehicleError
+from ksbo_mav.mav.signing import SigningKey, start_signing
 from ksbo_mav.mav.tlog import LINK_RECEIVED, LINK_SENT, TlogWriter
 from ksbo_mav.mav.wire import mavlink, mavutil
 
@@ -35,12 +36,13 @@ Tap = Callable[[Any, bool], None]
 @dataclass(frozen=True)
 class Endpoint:
     """Where the vehicle is. ``kind``: ``udp`` (we listen, as a GCS), ``udpout`` (we talk first), ``tcp``,
-    ``serial``."""
+    ``serial``; ``signing``: the key of a vehicle that signs its link (never shown: not in repr or str)."""
 
     kind: str
     host: str
     port: int = 0
     baud: int = 57600
+    signing: SigningKey | None = field(default=None, repr=False, compare=False)
 
     @property
     def device(self) -> str:
@@ -135,6 +137,12 @@ class Link:
         self.conn.WIRE_PROTOCOL_VERSION = "2.0"
         self.conn.mav.WIRE_PROTOCOL_VERSION = "2.0"
         self.mav = self.conn.mav
+        if endpoint.signing is not None:
+            start_signing(self.conn, endpoint.signing, time.time())
+        #: A frame with the signature flag arrived (the vehicle signs its link); a RADIO_STATUS arrived (a
+        #: telemetry radio is on the link: ksbo_mav.mav.link_loss).
+        self.signed_seen = False
+        self.radio_heard = False
         self.target_system = target_system or 0
         self.target_component = 1
         self.tlog: TlogWriter | None = None
@@ -165,6 +173,11 @@ class Link:
     def _on_message(self, _conn: Any, msg: Any) -> None:
         if msg.get_type() == "BAD_DATA":
             return  # garbage is not a packet; logging it would make the tlog unreadable
+        header = getattr(msg, "_header", None)
+        if header is not None and header.incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED:
+            self.signed_seen = True
+        if msg.get_type() == "RADIO_STATUS":
+            self.radio_heard = True
         if self.tlog is not None:
             self.tlog.write(msg.get_msgbuf(), LINK_RECEIVED)
         for tap in list(self.taps):
@@ -259,6 +272,9 @@ class Link:
             self.pump(0.1)
             if self.last_heartbeat_wall > before:
                 return self.last_heartbeat
+        if self.endpoint.signing is not None and self.mav.signing.badsig_count:  # signed, but not with our key
+            raise VehicleError(f"the vehicle's frames on {self.endpoint} are signed with another key than the one "
+                               f"from {self.endpoint.signing.source}: wrong signing key")
         raise VehicleError(f"no vehicle heartbeat on {self.endpoint} within {timeout:g} s "
                            "(is the vehicle running and sending to this address?)")
 

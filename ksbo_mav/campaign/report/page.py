@@ -130,10 +130,12 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
     if result and result.get("link"):
         from ksbo_mav.mav.linkcheck import LinkFigures
 
-        fig = LinkFigures(**{k: v for k, v in result["link"].items() if k != "at"})
+        fig = LinkFigures(**{k: v for k, v in result["link"].items() if k not in ("at", "on_link_loss")})
         flown = (rec.settings.get("mission") or {}).get("rate_hz")
         rows.append(("Link", esc(fig.describe() + (f"; flown at {flown} Hz, the profile's {fig.reduced_from_hz} Hz "
                                                    "did not fit the link" if fig.reduced_from_hz else ""))))
+        if result["link"].get("on_link_loss"):
+            rows.append(("If the link dies", esc(result["link"]["on_link_loss"])))
     if result and result.get("drift"):
         rows.append(("Vehicle changed", f'<span class="warn">{esc(result["drift"])}</span>'))
     if result and result.get("same_condition"):
