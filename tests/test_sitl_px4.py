@@ -25,6 +25,11 @@ def campaign(px4_sitl, tmp_path_factory):
 def test_px4_campaign_from_the_ground(px4_sitl, campaign):
     d, summary, log = campaign
     assert "arming and taking off to 10 m" in log and "landed and disarmed" in log
+    # PX4's link-loss failsafes said before arming and kept in the report (a loopback link: beside the vehicle)
+    said = " ".join(log.split())
+    assert "PX4 leaves OFFBOARD" in said and "The tool runs beside the vehicle" in said
+    page = (d / "report" / "index.html").read_text()
+    assert "If the link dies" in page and "PX4 leaves OFFBOARD" in page
     recs = trials(d)
     assert len(recs) == 4 and all(r["outcome"] == "ok" for r in recs)
     # PX4 SIH tracks the figure-8 far worse than 1 m (lap-2 RMS ~1.4 m): the baseline is still the reference, P 0.5.
