@@ -1,5 +1,6 @@
 """A tuner stand-in that holds the link during a guarded trial, in its own process so a test can cut the link by
-killing it: ``python tests/guard_trial_process.py TCP_PORT CONFIG_JSON``.
+killing it: ``python tests/guard_trial_process.py DEVICE PROFILE CONFIG_JSON`` (DEVICE: ``tcp:HOST:PORT`` or
+``udpout:HOST:PORT``).
 
 It connects as the tuner does, installs the onboard guard with the baseline gains, takes off in GUIDED, writes the
 trial gains, arms the guard and prints ``ARMED`` (then a JSON line with the baseline and trial values), then keeps
@@ -20,8 +21,9 @@ from ksbo_mav.mav.onboard_guard import OnboardGuard
 from ksbo_mav.mav.vehicle import Vehicle
 
 
-def main(port: int, spec: dict) -> None:
-    v = Vehicle.connect(Endpoint("tcp", "127.0.0.1", port), "ardupilot-copter", log=lambda s: print(s, flush=True))
+def main(device: str, profile: str, spec: dict) -> None:
+    kind, host, port = device.split(":")
+    v = Vehicle.connect(Endpoint(kind, host, int(port)), profile, log=lambda s: print(s, flush=True))
     baseline = {name: v.params.read(name) for name in v.gain_map.param_names}
     guard = OnboardGuard(v.link, v.params, v.cmd, log=lambda s: print(s, flush=True))
     limits = limits_from_profile(v.profile, spec.get("limits"))
@@ -40,4 +42,4 @@ def main(port: int, spec: dict) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]), json.loads(sys.argv[2]))
+    main(sys.argv[1], sys.argv[2], json.loads(sys.argv[3]))

@@ -10,16 +10,11 @@ guard's ``KSG_ALIVE`` = tripped, sent in the same script tick that wrote the gai
 
 from __future__ import annotations
 
-import json
-import os
-import signal
-import subprocess
-import sys
 import time
-from pathlib import Path
 
 import pytest
 from conftest import sitl_or_skip
+from guard_helpers import Observer, assert_baseline, start_tuner, stop
 from sitl_instances import release_stopped
 
 from ksbo_mav.mav.guard_script import (
@@ -39,8 +34,8 @@ pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
 #: Slow enough that the tuner stand-in's heartbeats (every 1/6 of the link timeout, in vehicle time) keep up on a
 #: busy 2-core machine; the guard counts on the vehicle's clock, so the speed-up changes no vehicle-time figure.
 SPEEDUP = 3
-BRAKE, LOITER, GUIDED = 17, 5, 4
-HERE = Path(__file__).resolve().parent
+BRAKE, LOITER = 17, 5
+PROFILE = "ardupilot-copter"
 
 
 @pytest.fixture(scope="module")
@@ -64,109 +59,12 @@ def scripting_sitl(tmp_path_factory):
     release_stopped()
 
 
-class Observer:
-    """A second connection (SERIAL1) that reads what the vehicle does: its clock, mode, parameters, the guard's
-    messages. Its system id (250) is not the one the guard watches."""
-
-    def __init__(self, sitl) -> None:
-        from pymavlink import mavutil
-
-        self.conn = mavutil.mavlink_connection(f"tcp:127.0.0.1:{sitl.tcp_ports[1]}", source_system=250,
-                                               source_component=190, autoreconnect=False)
-        assert self.conn.wait_heartbeat(timeout=10) is not None
-        self.conn.mav.command_long_send(1, 1, 511, 0, 2, 50_000, 0, 0, 0, 0, 0)  # SYSTEM_TIME at 20 Hz, this link
-        self.vehicle_ms = 0
-        self.mode = -1
-        self.texts: list[str] = []
-        self.alive: list[tuple[int, float]] = []  # (time_boot_ms, KSG_ALIVE)
-
-    def _take(self, m) -> None:
-        if m.get_srcSystem() != 1:
-            return
-        t = m.get_type()
-        if hasattr(m, "time_boot_ms"):
-            self.vehicle_ms = max(self.vehicle_ms, int(m.time_boot_ms))
-        if t == "HEARTBEAT" and m.get_srcComponent() == 1:
-            self.mode = int(m.custom_mode)
-        elif t == "STATUSTEXT" and str(m.text).startswith("KSG:"):
-            self.texts.append(str(m.text))
-        elif t == "NAMED_VALUE_FLOAT" and m.name == "KSG_ALIVE":
-            self.alive.append((int(m.time_boot_ms), float(m.value)))
-
-    def pump(self, seconds: float) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            m = self.conn.recv_match(blocking=True, timeout=0.05)
-            if m is not None:
-                self._take(m)
-
-    def until(self, predicate, wall_s: float) -> bool:
-        end = time.monotonic() + wall_s
-        while time.monotonic() < end:
-            if predicate():
-                return True
-            self.pump(0.05)
-        return predicate()
-
-    def first_alive(self, value: float, after_ms: int = 0) -> int | None:
-        return next((t for t, v in self.alive if v == value and t >= after_ms), None)
-
-    def armed_at(self) -> int:
-        """Vehicle time of the guard's first report of an armed trial (earlier reports may be an earlier guard's)."""
-        assert self.until(lambda: self.first_alive(GuardState.ARMED) is not None, 30.0), self.texts
-        return self.first_alive(GuardState.ARMED)
-
-    def param(self, name: str) -> float:
-        for _ in range(5):
-            self.conn.mav.param_request_read_send(1, 1, name.encode(), -1)
-            end = time.monotonic() + 1.0
-            while time.monotonic() < end:
-                m = self.conn.recv_match(blocking=True, timeout=0.1)
-                if m is None:
-                    continue
-                self._take(m)
-                if m.get_type() == "PARAM_VALUE" and m.param_id == name:
-                    return float(m.param_value)
-        raise AssertionError(f"no PARAM_VALUE for {name}")
-
-    def set_mode(self, mode: int) -> None:
-        self.conn.mav.command_long_send(1, 1, 176, 0, 1, mode, 0, 0, 0, 0, 0)
-
-    def close(self) -> None:
-        self.conn.close()
-
-
-def start_tuner(sitl, spec: dict) -> tuple[subprocess.Popen, dict]:
-    """The tuner stand-in, flying a guarded trial; returns it (and its baseline/trial values) once ARMED."""
-    env = dict(os.environ, MAVLINK20="1")
-    proc = subprocess.Popen([sys.executable, str(HERE / "guard_trial_process.py"), str(sitl.tcp_port),
-                             json.dumps(spec)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
-    lines = []
-    for line in proc.stdout:
-        lines.append(line)
-        if line.startswith("ARMED"):
-            return proc, json.loads(proc.stdout.readline())
-    proc.wait(10)
-    raise AssertionError("tuner stand-in ended before arming the guard:\n" + "".join(lines[-30:]))
-
-
-def stop(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(10)
-
-
-def assert_baseline(obs: Observer, baseline: dict[str, float]) -> None:
-    for name, value in baseline.items():
-        assert obs.param(name) == pytest.approx(value, rel=1e-6), name
-
-
 TRIAL = {"PSC_POSXY_P": 1.8, "PSC_VELXY_P": 3.2}
 
 
 def test_link_cut_restores_baseline_and_stops_on_board(scripting_sitl):
-    obs = Observer(scripting_sitl)
-    proc, values = start_tuner(scripting_sitl, {"trial": TRIAL})
+    obs = Observer(f"tcp:127.0.0.1:{scripting_sitl.tcp_ports[1]}")
+    proc, values = start_tuner(f"tcp:127.0.0.1:{scripting_sitl.tcp_port}", PROFILE, {"trial": TRIAL})
     try:
         obs.pump(1.0)
         assert obs.param("PSC_POSXY_P") == pytest.approx(1.8)  # the trial gains are flying
@@ -189,10 +87,10 @@ def test_link_cut_restores_baseline_and_stops_on_board(scripting_sitl):
 
 
 def test_box_left_restores_baseline_and_brakes(scripting_sitl):
-    obs = Observer(scripting_sitl)
+    obs = Observer(f"tcp:127.0.0.1:{scripting_sitl.tcp_ports[1]}")
     # The figure-8 starts at the origin's north 0: a 3 m box, and the trial flown 6 m north.
-    proc, values = start_tuner(scripting_sitl, {"trial": TRIAL, "limits": {"x_max_m": 3.0},
-                                                "fly_to": [6.0, 0.0, -10.0]})
+    spec = {"trial": TRIAL, "limits": {"x_max_m": 3.0}, "fly_to": [6.0, 0.0, -10.0]}
+    proc, values = start_tuner(f"tcp:127.0.0.1:{scripting_sitl.tcp_port}", PROFILE, spec)
     try:
         armed_ms = obs.armed_at()
         assert obs.until(lambda: obs.first_alive(GuardState.TRIPPED, armed_ms) is not None, 60.0), obs.texts
@@ -206,8 +104,8 @@ def test_box_left_restores_baseline_and_brakes(scripting_sitl):
 
 
 def test_pilot_mode_change_restores_baseline_and_keeps_the_pilots_mode(scripting_sitl):
-    obs = Observer(scripting_sitl)
-    proc, values = start_tuner(scripting_sitl, {"trial": TRIAL})
+    obs = Observer(f"tcp:127.0.0.1:{scripting_sitl.tcp_ports[1]}")
+    proc, values = start_tuner(f"tcp:127.0.0.1:{scripting_sitl.tcp_port}", PROFILE, {"trial": TRIAL})
     try:
         armed_ms = obs.armed_at()
         obs.set_mode(LOITER)  # the pilot (a ground station on another link) takes over

@@ -31,11 +31,14 @@ the controller: how a figure-8 episode starts at the origin with a chosen initia
 Parameters: the model's (planar: the 9 gains of ``params/sim-planar.toml``, FENCE_X_MAX, FENCE_Z_MIN,
 FENCE_Z_MAX, FENCE_TILT_DEG) then the endpoint's (``server.endpoint_specs``): SIM_PKT_LOSS_IN/OUT,
 SIM_DELAY_MS, SIM_MUTE_S, SIM_PILOT_MODE, SIM_PSET_FAIL, SIM_FAULT_AFTER (fault switches, volatile), SIM_SP_TIMEOUT,
-SIM_POS_NOISE, SIM_VEL_NOISE, SIM_ACC_NOISE, TKOFF_SPEED, LAND_SPEED, SIM_LOCKSTEP (read-only).
+SIM_POS_NOISE, SIM_VEL_NOISE, SIM_ACC_NOISE, TKOFF_SPEED, LAND_SPEED, SIM_LOCKSTEP (read-only), then the simulated
+guard's (``guard.PARAMS``): SCR_ENABLE, MAV_GCS_SYSID, KSG_STATE, KSG_TRIP.
 
 Modules, one per MAVLink service: ``link`` (sockets, fault injection), ``params`` (parameter protocol,
-persistence), ``commands`` (COMMAND_LONG/ACK, modes, MAVFTP NAK), ``telemetry`` (streams), ``flight`` (arming,
-takeoff, guided setpoints, hold, land, crash, estimator), ``server`` (clock, lockstep, dispatch, SIM_* faults),
+persistence), ``commands`` (COMMAND_LONG/ACK, modes), ``ftp`` (MAVLink FTP: scripts written, listed and removed;
+reads refused), ``guard`` (the onboard guard simulated: SCR_ENABLE, MAV_GCS_SYSID, KSG_STATE/KSG_TRIP,
+MAV_CMD_SCRIPTING), ``telemetry`` (streams), ``flight`` (arming, takeoff, guided setpoints, hold, land, crash,
+estimator), ``server`` (clock, lockstep, dispatch, SIM_* faults),
 ``personality`` (autopilot identities), ``vehicles`` (model registry), ``options`` (command line).
 """
 

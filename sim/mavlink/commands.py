@@ -1,4 +1,4 @@
-"""COMMAND_LONG / SET_MODE / FILE_TRANSFER_PROTOCOL handling: every COMMAND_LONG gets a COMMAND_ACK.
+"""COMMAND_LONG / SET_MODE handling: every COMMAND_LONG gets a COMMAND_ACK.
 
 Simulator-only commands (documented in ``ksbo_sim.mavlink``):
 
@@ -7,17 +7,19 @@ Simulator-only commands (documented in ``ksbo_sim.mavlink``):
   given initial velocity, exactly as ``ksbo_sim.simulate`` does).
 * MAV_CMD_USER_2 (31011) lockstep step: advance simulated time by p1 seconds, then ACK (lockstep only).
 * MAV_CMD_USER_3 (31012) reset: disarmed vehicle back on the ground at home, crash state cleared.
+
+MAV_CMD_SCRIPTING (42701) p1 = 3 restarts the (simulated) scripts: :mod:`ksbo_sim.mavlink.guard`.
 """
 
 from __future__ import annotations
 
 import math
-import struct
 from typing import Any
 
 import numpy as np
 
 from ksbo_sim.mavlink.flight import SEV_WARNING
+from ksbo_sim.mavlink.guard import CMD_SCRIPTING, SCRIPTING_RESTART
 from ksbo_sim.mavlink.personality import Mode
 from ksbo_sim.mavlink.telemetry import AUTOPILOT_VERSION
 
@@ -27,9 +29,6 @@ CMD_SET_INTERVAL, CMD_REQUEST_MESSAGE, CMD_REQUEST_CAPS = 511, 512, 520
 CMD_SIM_SET_STATE, CMD_SIM_STEP, CMD_SIM_RESET = 31010, 31011, 31012
 FORCE_MAGIC = (21196, 2989)  # MAVLink force flag; MAVProxy's "arm throttle force" sends ArduPilot's 2989
 MAX_STEP_S = 3600.0
-
-FTP_OPEN_FILE_RO, FTP_NAK = 4, 129
-FTP_ERR_UNKNOWN_COMMAND, FTP_ERR_FILE_NOT_FOUND = 7, 10
 
 
 class Commands:
@@ -93,6 +92,9 @@ class Commands:
             else:
                 s.advance(max(1, math.ceil(p[0] / f.model.ctrl_dt - 1e-9)))
                 result = ACCEPTED
+        elif c == CMD_SCRIPTING and int(p[0]) == SCRIPTING_RESTART:
+            s.guard.restart()
+            result = ACCEPTED
         else:
             result = UNSUPPORTED
         s.mav.command_ack_send(c, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent())
@@ -104,13 +106,3 @@ class Commands:
         mode = self.s.personality.decode_mode(msg.custom_mode)
         if mode is not None:
             self.s.flight.set_mode(mode)
-
-    def ftp(self, msg) -> None:
-        """Answer every MAVFTP request with a NAK so ground stations fall back to the parameter protocol."""
-        req = bytes(msg.payload)
-        seq, session, opcode = struct.unpack_from("<HBB", req, 0)
-        err = FTP_ERR_FILE_NOT_FOUND if opcode == FTP_OPEN_FILE_RO else FTP_ERR_UNKNOWN_COMMAND
-        header = struct.pack("<HBBBBBBI", (seq + 1) & 0xFFFF, session, FTP_NAK, 1, opcode, 0, 0, 0)
-        payload = list(header + bytes([err]))
-        payload += [0] * (251 - len(payload))
-        self.s.mav.file_transfer_protocol_send(0, msg.get_srcSystem(), msg.get_srcComponent(), payload)

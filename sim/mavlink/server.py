@@ -31,6 +31,10 @@ from ksbo_sim.errors import SimInputError
 from ksbo_sim.estimator import Estimator
 from ksbo_sim.mavlink.commands import Commands
 from ksbo_sim.mavlink.flight import SEV_NOTICE, STATUS_EMERGENCY, Flight
+from ksbo_sim.mavlink.ftp import FtpServer
+from ksbo_sim.mavlink.guard import PARAMS as GUARD_PARAMS
+from ksbo_sim.mavlink.guard import VOLATILE as GUARD_VOLATILE
+from ksbo_sim.mavlink.guard import SimGuard
 from ksbo_sim.mavlink.link import Link
 from ksbo_sim.mavlink.params import ParamTable
 from ksbo_sim.mavlink.personality import Personality
@@ -86,10 +90,13 @@ class Server:
         self.power = Power(self.flight, battery, conditions, self._notify)  # (battery, conditions) or nothing
         self.telemetry = Telemetry(self.mav, self.flight, personality, product_id, self.power)
         self.commands = Commands(self)
-        own = endpoint_specs() + self.power.params
+        self.ftp = FtpServer(lambda payload, sysid, compid: self.mav.file_transfer_protocol_send(0, sysid, compid,
+                                                                                                 payload))
+        self.guard = SimGuard(self)
+        own = endpoint_specs() + self.power.params + GUARD_PARAMS
         self._own = {s.name for s in own}
         self.params = ParamTable(list(model.param_specs()) + own, self._param_changed, personality.encoding,
-                                 readonly=("SIM_LOCKSTEP",), volatile=FAULT_PARAMS, path=params_path,
+                                 readonly=("SIM_LOCKSTEP",), volatile=FAULT_PARAMS + GUARD_VOLATILE, path=params_path,
                                  echo_index=personality.echo_index)
         self.params.force("SIM_LOCKSTEP", 1 if lockstep else 0)
         for name in self._own:  # values loaded from a parameter file before the table existed
@@ -182,6 +189,7 @@ class Server:
         for _ in range(n):
             self.flight.step(self.now_us)
             self.power.step(self.model.ctrl_dt)
+            self.guard.step(self.now_us)
             self.now_us += dt_us
             if self.link.has_peers:  # nobody listening: skip encoding (matters at high speed-ups)
                 self.telemetry.send_due(self.now_us, (LOCAL_POSITION_NED,) if reply else ())
@@ -209,7 +217,9 @@ class Server:
         elif kind == "REQUEST_DATA_STREAM":
             self.telemetry.request_data_stream(msg.req_stream_id, msg.req_message_rate, bool(msg.start_stop))
         elif kind == "FILE_TRANSFER_PROTOCOL":
-            self.commands.ftp(msg)
+            self.ftp.handle(msg)
+        elif kind == "HEARTBEAT":
+            self.guard.heartbeat(msg)
         elif kind == "TIMESYNC" and msg.tc1 == 0:  # a request: answered as ArduPilot and PX4 do (a link's round trip)
             self.mav.timesync_send(self.now_us * 1000, msg.ts1)
             self.link.flush()

@@ -1,0 +1,173 @@
+"""The onboard guard, simulated: what ``ksbo_guard.lua`` does on ArduPilot, done by the simulator itself, so the
+demo and the fast tests run the tuner's guard protocol against a vehicle without Lua.
+
+The vehicle looks like ArduPilot with scripting on: parameters ``SCR_ENABLE`` (1), ``MAV_GCS_SYSID`` (255) and the
+script's ``KSG_STATE``/``KSG_TRIP`` (always listed here; ArduPilot adds them when the script starts), a ``scripts/``
+directory served over MAVLink FTP (:mod:`ksbo_sim.mavlink.ftp`), and MAV_CMD_SCRIPTING (42701, p1 = 3) restarting
+the scripts: the guard then runs when ``scripts/ksbo_guard.lua`` is there, configured from the script's own
+configuration block (the same lines the Lua reads), and stops when it is gone. While it runs it does what the Lua
+does, every 100 ms of simulated time: watch an armed trial (``KSG_STATE`` 1) for the tuner's heartbeat (from the
+system id in ``MAV_GCS_SYSID``, on the simulated clock), the box, the tilt, the mode and the arming, and on a
+breach put the baseline gains back, hold (the simulator's BRAKE and LOITER are one hold mode) and say so;
+``KSG_ALIVE`` and ``KSG_CFG`` go out twice a second. The protocol words are documented in
+``ksbo_mav.mav.guard_script``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Any
+
+from ksbo_sim.mavlink.personality import Mode
+from ksbo_sim.vehicle import ParamSpec
+
+SCRIPT_PATH = "scripts/ksbo_guard.lua"
+CMD_SCRIPTING, SCRIPTING_RESTART = 42701, 3
+IDLE, ARMED, TRIPPED, REFUSED = 0, 1, 2, 3
+LINK, BOX, TILT, PILOT, DISARMED = 1, 2, 3, 4, 5
+TICK_US, ALIVE_US = 100_000, 500_000
+SEV_CRITICAL, SEV_WARNING, SEV_INFO = 2, 4, 6
+
+PARAMS = [
+    ParamSpec("SCR_ENABLE", 1, 0, 1, "INT32", "Lua scripting (the simulated guard runs when 1)"),
+    ParamSpec("MAV_GCS_SYSID", 255, 1, 255, "INT32", "system id whose heartbeat is the GCS link"),
+    ParamSpec("KSG_STATE", 0.0, 0.0, 3.0, description="onboard guard: 0 idle, 1 trial armed, 2 tripped, 3 refused"),
+    ParamSpec("KSG_TRIP", 0.0, 0.0, 6.0, description="onboard guard: why it tripped"),
+]
+#: Never persisted: a restarted vehicle's guard starts idle, as the Lua does.
+VOLATILE = ("KSG_STATE", "KSG_TRIP")
+
+
+def parse_config(text: str) -> dict[str, Any] | None:
+    """The configuration block of a rendered ``ksbo_guard.lua``: {"CONFIG_ID": 7, "GAINS": [(name, value)], ...};
+    None when the block is missing or lists no gains."""
+    m = re.search(r"-- KSBO_CONFIG_BEGIN\n(.*?)-- KSBO_CONFIG_END", text, re.S)
+    if m is None:
+        return None
+    out: dict[str, Any] = {}
+    for line in m.group(1).splitlines():
+        names, sep, values = line.removeprefix("local ").partition(" = ")
+        if not sep:
+            continue
+        if names.strip() == "GAINS":
+            out["GAINS"] = [(n, float(v)) for n, v in re.findall(r'\{"(\w+)",\s*([-+0-9.eE]+)\}', values)]
+            continue
+        for name, value in zip(names.split(","), values.split(",")):
+            out[name.strip()] = float(value)
+    return out if out.get("GAINS") else None
+
+
+class SimGuard:
+    """The guard of one :class:`ksbo_sim.mavlink.server.Server` (which calls :meth:`step` every control period)."""
+
+    def __init__(self, server: Any) -> None:
+        self.s = server
+        self.cfg: dict[str, Any] | None = None
+        self.state = IDLE
+        self.gcs_seen_us: int | None = None
+        self._next_tick = 0
+        self._next_alive = 0
+
+    # --- the scripting service ---------------------------------------------------------------------------
+    def restart(self) -> None:
+        """MAV_CMD_SCRIPTING restart: (re)start the guard from the uploaded script, or stop it."""
+        self.s.telemetry.statustext(SEV_CRITICAL, "Scripting: restarted")
+        data = self.s.ftp.files.get(SCRIPT_PATH)
+        self.cfg = parse_config(data.decode("utf-8", "replace")) if data and self.s.params["SCR_ENABLE"] else None
+        self.state = IDLE
+        self.s.params.force("KSG_STATE", IDLE)
+        if self.cfg is not None:
+            self.s.telemetry.statustext(SEV_INFO, f"KSG: guard running, config {int(self.cfg['CONFIG_ID'])}, "
+                                                  f"{len(self.cfg['GAINS'])} gains")
+            self._next_alive = self.s.now_us
+
+    def heartbeat(self, msg: Any) -> None:
+        if msg.get_srcSystem() == int(self.s.params["MAV_GCS_SYSID"]):
+            self.gcs_seen_us = self.s.now_us
+
+    # --- the script's loop -------------------------------------------------------------------------------
+    def step(self, now_us: int) -> None:
+        if self.cfg is None or now_us < self._next_tick:
+            return
+        self._next_tick = now_us + TICK_US
+        wanted = int(self.s.params["KSG_STATE"])
+        if self.state == ARMED:
+            if wanted == IDLE:
+                self._set(IDLE)
+            else:
+                self._watch(now_us)
+        elif wanted == ARMED:
+            why = self._refusal(now_us)
+            if why:
+                self._set(REFUSED)
+                self.s.telemetry.statustext(SEV_WARNING, "KSG: trial not armed: " + why)
+            else:
+                self._set(ARMED, 0)
+                self.s.telemetry.statustext(SEV_INFO, "KSG: trial armed")
+        elif wanted == IDLE and self.state != IDLE:
+            self._set(IDLE)
+        if now_us >= self._next_alive:
+            self._alive()
+
+    def _alive(self) -> None:
+        ms = self.s.now_us // 1000
+        self.s.mav.named_value_float_send(ms & 0xFFFFFFFF, b"KSG_ALIVE", float(self.state))
+        self.s.mav.named_value_float_send(ms & 0xFFFFFFFF, b"KSG_CFG", float(self.cfg["CONFIG_ID"]))
+        self._next_alive = self.s.now_us + ALIVE_US
+
+    def _set(self, state: int, reason: int | None = None) -> None:
+        self.state = state
+        self.s.params.force("KSG_STATE", state)
+        if reason is not None:
+            self.s.params.force("KSG_TRIP", reason)
+        self._alive()
+
+    def _silent_ms(self, now_us: int) -> float:
+        return math.inf if self.gcs_seen_us is None else (now_us - self.gcs_seen_us) / 1000.0
+
+    def _refusal(self, now_us: int) -> str | None:
+        f = self.s.flight
+        if not f.armed:
+            return "vehicle disarmed"
+        if f.mode is not Mode.GUIDED:
+            return "not in GUIDED"
+        if self._silent_ms(now_us) > self.cfg["LINK_TIMEOUT_MS"]:
+            return "no heartbeat from MAV_GCS_SYSID"
+        return None
+
+    def _watch(self, now_us: int) -> None:
+        f, c = self.s.flight, self.cfg
+        if not f.armed:
+            return self._trip(DISARMED, "disarmed", False)
+        if f.mode is not Mode.GUIDED:
+            return self._trip(PILOT, "pilot mode change", False)
+        silent = self._silent_ms(now_us)
+        if silent > c["LINK_TIMEOUT_MS"]:
+            return self._trip(LINK, f"link lost {silent / 1000:.1f} s", True)
+        north, east, up = float(f.est_pos[0]), float(f.est_pos[1]), -float(f.est_pos[2])
+        if c.get("BRAKE_ACCEL", 0) > 0:
+            k = 1.0 / (2.0 * c["BRAKE_ACCEL"])
+            v = f.est_vel
+            north, east, up = north + v[0] * abs(v[0]) * k, east + v[1] * abs(v[1]) * k, up - v[2] * abs(v[2]) * k
+        if abs(north) > c["X_MAX"]:
+            return self._trip(BOX, f"|north| {abs(north):.1f}>{c['X_MAX']:.1f} m", True)
+        if abs(east) > c["Y_MAX"]:
+            return self._trip(BOX, f"|east| {abs(east):.1f}>{c['Y_MAX']:.1f} m", True)
+        if not c["Z_MIN"] <= up <= c["Z_MAX"]:
+            return self._trip(BOX, f"up {up:.1f} m out of {c['Z_MIN']:.0f}..{c['Z_MAX']:.0f}", True)
+        tilt = math.degrees(max(abs(float(f.truth.rpy[0])), abs(float(f.truth.rpy[1]))))
+        if tilt > c["TILT_MAX_DEG"]:
+            return self._trip(TILT, f"tilt {tilt:.0f}>{c['TILT_MAX_DEG']:.0f} deg", True)
+        return None
+
+    def _trip(self, reason: int, text: str, take_control: bool) -> None:
+        failed = sum(1 for name, value in self.cfg["GAINS"]
+                     if name not in self.s.params.values or self.s.params.set_local(name, value) is not None)
+        gains = "gains back" if not failed else f"{failed} gains NOT back"
+        action = ""
+        if take_control:
+            self.s.flight.set_mode(Mode.HOLD)  # BRAKE, then LOITER: one hold mode in this simulator
+            action = "; BRAKE"
+        self._set(TRIPPED, reason)
+        self.s.telemetry.statustext(SEV_CRITICAL if not failed else 1, f"KSG: {text}; {gains}{action}")

@@ -1,0 +1,105 @@
+"""The onboard guard's protocol against the built-in simulator's simulated guard: the same installer, trial arming
+and removal the tuner runs on ArduPilot, and the guard's answers to a cut link and a pilot's mode change, watched
+on a second connection while the tuner stand-in (a process of its own) is killed. The simulator runs in real time
+so the stand-in's heartbeats keep the pace they have on a vehicle."""
+
+from __future__ import annotations
+
+import pytest
+from guard_helpers import Observer, assert_baseline, start_tuner, stop
+
+from ksbo_mav.mav.guard_script import GUARD_PARAMS, GuardState, config_for, new_config_id
+from ksbo_mav.mav.link import Endpoint
+from ksbo_mav.mav.monitor import limits_from_profile
+from ksbo_mav.mav.onboard_guard import GuardUnavailable, OnboardGuard
+from ksbo_mav.mav.vehicle import Vehicle
+from ksbo_sim.process import SimProcess
+
+pytestmark = [pytest.mark.network, pytest.mark.timeout(120)]
+
+PROFILE = "sim-planar"
+LOITER = 5
+TRIAL = {"POS_X_P": 0.2, "POS_Z_P": 0.2}
+
+
+@pytest.fixture()
+def sim():
+    with SimProcess("--speedup", "1") as s:
+        yield s
+
+
+def device(sim) -> str:
+    return f"udpout:{sim.host}:{sim.port}"
+
+
+def test_link_cut_restores_baseline_and_holds(sim):
+    proc, values = start_tuner(device(sim), PROFILE, {"trial": TRIAL})
+    obs = Observer(device(sim))
+    try:
+        armed_ms = obs.armed_at()
+        assert obs.param("POS_X_P") == pytest.approx(0.2)  # the trial gains are flying
+        stop(proc)
+        assert obs.until(lambda: obs.first_alive(GuardState.TRIPPED, armed_ms) is not None, 20.0), obs.texts
+        assert obs.param("KSG_TRIP") == 1
+        assert_baseline(obs, values["baseline"])
+        assert obs.until(lambda: obs.mode == LOITER, 5.0)
+        assert any("link lost" in t for t in obs.texts), obs.texts
+    finally:
+        stop(proc)
+        obs.close()
+
+
+def test_pilot_mode_change_restores_baseline_and_keeps_the_pilots_mode(sim):
+    proc, values = start_tuner(device(sim), PROFILE, {"trial": TRIAL})
+    obs = Observer(device(sim))
+    try:
+        armed_ms = obs.armed_at()
+        obs.set_mode(LOITER)
+        assert obs.until(lambda: obs.first_alive(GuardState.TRIPPED, armed_ms) is not None, 20.0), obs.texts
+        assert obs.param("KSG_TRIP") == 4
+        assert_baseline(obs, values["baseline"])
+        assert any("pilot mode change" in t for t in obs.texts), obs.texts
+    finally:
+        stop(proc)
+        obs.close()
+
+
+def _connect(sim) -> Vehicle:
+    return Vehicle.connect(Endpoint("udpout", sim.host, sim.port), PROFILE)
+
+
+def test_install_arm_disarm_remove(sim):
+    v = _connect(sim)
+    try:
+        baseline = {name: v.params.read(name) for name in v.gain_map.param_names}
+        guard = OnboardGuard(v.link, v.params, v.cmd)
+        with pytest.raises(GuardUnavailable, match="not answering"):
+            guard.arm_trial()  # nothing installed: the tuner refuses to fly
+        guard.install(config_for(limits_from_profile(v.profile), 3.0, baseline, new_config_id()))
+        assert v.params.read("MAV_GCS_SYSID") == v.link.mav.srcSystem
+        with pytest.raises(GuardUnavailable, match="disarmed"):
+            guard.arm_trial()  # on the ground: the guard refuses and says why
+        v.setup_streams()
+        v.ensure_airborne()
+        guard.arm_trial()
+        assert guard.disarm_trial() == GuardState.ARMED  # ended by the tuner, never tripped
+        guard.remove()
+        for name, default in GUARD_PARAMS.items():
+            assert v.params.read(name) == default
+        assert v.params.read("MAV_GCS_SYSID") == 255
+        v.link.pump(1.0)
+        guard.alive_wall = 0.0
+        v.link.pump(1.5)
+        assert guard.alive_wall == 0.0  # the scripts restarted without the guard
+    finally:
+        v.close()
+
+
+def test_vehicle_without_scripting_is_refused_in_one_line():
+    with SimProcess("--set", "SCR_ENABLE=0") as s:
+        v = _connect(s)
+        try:
+            with pytest.raises(GuardUnavailable, match="set SCR_ENABLE to 1 and reboot"):
+                OnboardGuard(v.link, v.params, v.cmd).check_scripting()
+        finally:
+            v.close()
