@@ -198,8 +198,11 @@ LASTING_PACK = {"px4": {"SIM_BAT_DRAIN": 1800.0},
 
 
 def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str | Path | None = None,
-               keep_params: bool = False, heartbeat_timeout: float = 60.0) -> Sitl:
+               keep_params: bool = False, heartbeat_timeout: float = 60.0, scripting: bool = False) -> Sitl:
     """Start a SITL and wait until it sends a HEARTBEAT on loopback.
+
+    ``scripting`` (ArduCopter): boot with Lua scripting on (``SCR_ENABLE`` 1 from a second defaults file after
+    ``copter.parm``; the setting takes effect only at boot), as a vehicle prepared for the onboard guard.
 
     ArduCopter's clock only starts once a client connects to SERIAL0; the heartbeat probe connects and
     disconnects (ArduPilot accepts the next client on the same port). :class:`SitlNotFound` if no SITL is
@@ -216,6 +219,10 @@ def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str 
     log_path = wd / "sitl-output.txt"
     if kind == "ardupilot":
         args = [str(script), "-I", str(instance), "-s", f"{speedup:g}", "-d", str(wd)] + (["-k"] if keep_params else [])
+        if scripting:  # ArduPilot reads a comma-separated defaults list; a later --defaults replaces the run script's
+            extra = wd / "scripting.parm"
+            extra.write_text("SCR_ENABLE 1\n")
+            args += ["--", "--defaults", f"{script.parent / 'copter.parm'},{extra}"]
     else:
         args = [str(script), "-i", str(instance), "-s", f"{speedup:g}", "-w", str(wd)] + (["-k"] if keep_params else [])
     with open(log_path, "wb") as out:

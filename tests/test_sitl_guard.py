@@ -10,8 +10,6 @@ guard's ``KSG_ALIVE`` = tripped, sent in the same script tick that wrote the gai
 
 from __future__ import annotations
 
-import time
-
 import pytest
 from conftest import sitl_or_skip
 from guard_helpers import Observer, assert_baseline, start_tuner, stop
@@ -39,21 +37,10 @@ PROFILE = "ardupilot-copter"
 
 
 @pytest.fixture(scope="module")
-def scripting_sitl(tmp_path_factory):
-    """ArduCopter SITL with SCR_ENABLE 1: set, then the SITL restarted on its saved parameters (the setting takes
-    effect at boot, as on a flight controller)."""
-    wd = tmp_path_factory.mktemp("guard-sitl")
-    sitl = sitl_or_skip("ardupilot", SPEEDUP, workdir=wd)
-    for _ in range(4):
-        if sitl.set_param("SCR_ENABLE", 1) == 1 and (wd / "scripts").is_dir():
-            break  # booted with scripting on: it made its scripts directory
-        time.sleep(2.0)  # the SITL writes its parameter storage to eeprom.bin a moment after the change
-        sitl.stop()
-        release_stopped()
-        sitl = sitl_or_skip("ardupilot", SPEEDUP, workdir=wd, keep_params=True)
-    else:
-        sitl.stop()
-        pytest.fail("ArduCopter SITL did not boot with SCR_ENABLE 1")
+def scripting_sitl():
+    """ArduCopter SITL booted with SCR_ENABLE 1 (the setting takes effect at boot, as on a flight controller; the
+    guard's installer refuses a vehicle without it)."""
+    sitl = sitl_or_skip("ardupilot", SPEEDUP, scripting=True)
     yield sitl
     sitl.stop()
     release_stopped()

@@ -64,14 +64,14 @@ class OnboardGuard:
         self.script_path: str | None = None
         self.gcs_sysid_param: str | None = None
         self.gcs_sysid_before: float | None = None
-        self.beat_interval_s = 1.0
-        self._next_beat = 0.0
+        self._last_beat_ms: int | None = None
         link.handlers.append(self._on_msg)
 
     # --- what the guard says ------------------------------------------------------------------------------
     def _on_msg(self, msg: Any) -> None:
         if not self.link.is_vehicle(msg):
             return
+        self._beat(msg)
         kind = msg.get_type()
         if kind == "NAMED_VALUE_FLOAT":
             name = str(msg.name).rstrip("\0")
@@ -94,12 +94,16 @@ class OnboardGuard:
     def trip_reason(self) -> str:
         return TRIP_REASONS.get(int(self._read(TRIP_PARAM)), "unknown")
 
-    def _beat(self) -> None:
-        """Heartbeats often enough that the guard, counting on the vehicle's clock, never mistakes a live link for a
-        lost one: the link's own 1 Hz (wall clock) is 10 s of vehicle time on a SITL at 10x."""
-        now = time.monotonic()
-        if now >= self._next_beat and not self.link.closed:
-            self._next_beat = now + self.beat_interval_s
+    def _beat(self, msg: Any) -> None:
+        """A heartbeat every sixth of the link timeout of *vehicle* time while a guard is installed: the guard counts
+        on the vehicle's clock, and the link's own 1 Hz (wall) heartbeat is 10 s of vehicle time on a SITL at 10x
+        or a lockstep simulator running ahead."""
+        t = getattr(msg, "time_boot_ms", None)
+        if self.config is None or t is None or self.link.closed:
+            return
+        if self._last_beat_ms is None or t < self._last_beat_ms or \
+                t - self._last_beat_ms >= self.config.link_timeout_s * 1000.0 / 6.0:
+            self._last_beat_ms = int(t)
             self.link.send(self.link.mav.heartbeat_encode(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
                                                           mavlink.MAV_STATE_ACTIVE))
 
@@ -161,10 +165,6 @@ class OnboardGuard:
         self.script_path = f"{directory}/{SCRIPT_NAME}"
         put_file(self.link, self.script_path, data)
         self.config = config
-        speedup = self.params.table["SIM_SPEEDUP"].value if "SIM_SPEEDUP" in self.params.table else 1.0
-        self.beat_interval_s = min(1.0, config.link_timeout_s / (6.0 * max(1.0, speedup)))
-        if self._beat not in self.link.idle:
-            self.link.idle.append(self._beat)
         self.restart_scripts()
         deadline = time.monotonic() + ALIVE_WAIT_S
         while not self.answering() and time.monotonic() < deadline:
@@ -224,8 +224,6 @@ class OnboardGuard:
                 self.log(f"onboard guard: removing {what} failed: {exc}")
                 first = first or exc
         self.config = None
-        if self._beat in self.link.idle:
-            self.link.idle.remove(self._beat)
         if first is not None:
             raise first
         self.log("onboard guard: removed")

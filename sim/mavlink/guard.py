@@ -80,7 +80,14 @@ class SimGuard:
         if self.cfg is not None:
             self.s.telemetry.statustext(SEV_INFO, f"KSG: guard running, config {int(self.cfg['CONFIG_ID'])}, "
                                                   f"{len(self.cfg['GAINS'])} gains")
-            self._next_alive = self.s.now_us
+            self._alive()  # at once: in lockstep no time passes until the tuner steps it
+
+    def state_written(self) -> None:
+        """A PARAM_SET of KSG_STATE: answered right after its echo (the server steps the guard after every
+        parameter message) rather than at the next tick, because in lockstep no tick comes while the tuner waits
+        for the answer; on ArduPilot the script answers within its 100 ms tick."""
+        if self.cfg is not None and int(self.s.params["KSG_STATE"]) != self.state:
+            self._next_tick = 0
 
     def heartbeat(self, msg: Any) -> None:
         if msg.get_srcSystem() == int(self.s.params["MAV_GCS_SYSID"]):

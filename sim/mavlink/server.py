@@ -122,6 +122,9 @@ class Server:
         if name not in self._own:
             self.model.set_param(name, value)
             return
+        if name == "KSG_STATE" and hasattr(self, "params"):
+            self.guard.state_written()
+            return
         if self.power.set_param(name, value):
             return
         f, v = self.flight, self.params.values if hasattr(self, "params") else None
@@ -205,6 +208,7 @@ class Server:
         kind = msg.get_type()
         if kind.startswith("PARAM_"):
             self.params.handle(msg)
+            self.guard.step(self.now_us)  # a KSG_STATE write is answered after its echo
         elif kind == "COMMAND_LONG":
             self.commands.handle(msg)
         elif kind == "COMMAND_INT":  # same commands; x, y arrive as integers, z as float (param5..7)
