@@ -198,11 +198,12 @@ LASTING_PACK = {"px4": {"SIM_BAT_DRAIN": 1800.0},
 
 
 def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str | Path | None = None,
-               keep_params: bool = False, heartbeat_timeout: float = 60.0, scripting: bool = False) -> Sitl:
+               keep_params: bool = False, heartbeat_timeout: float = 60.0, scripting: bool = True) -> Sitl:
     """Start a SITL and wait until it sends a HEARTBEAT on loopback.
 
-    ``scripting`` (ArduCopter): boot with Lua scripting on (``SCR_ENABLE`` 1 from a second defaults file after
-    ``copter.parm``; the setting takes effect only at boot), as a vehicle prepared for the onboard guard.
+    ``scripting`` (ArduCopter, default on): boot with Lua scripting on (``SCR_ENABLE`` 1 from a second defaults
+    file after ``copter.parm``; the setting takes effect only at boot), as a vehicle prepared for the tuner's
+    onboard guard, which ``ksbo-mav tune`` requires unless ``--no-onboard-guard``.
 
     ArduCopter's clock only starts once a client connects to SERIAL0; the heartbeat probe connects and
     disconnects (ArduPilot accepts the next client on the same port). :class:`SitlNotFound` if no SITL is

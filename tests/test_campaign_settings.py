@@ -102,6 +102,11 @@ def _new_args(tmp_path, *cli: str):
     ("accept", "command_line", lambda tmp: config_from_args(_resume_args(tmp, {}, "--accept")).accept, True),
     ("accept", "stored", lambda tmp: config_from_args(_resume_args(tmp, {"accept": True})).accept, True),
     ("accept", "default", lambda tmp: config_from_args(_new_args(tmp)).accept, False),
+    ("onboard_guard", "command_line",
+     lambda tmp: config_from_args(_resume_args(tmp, {}, "--no-onboard-guard")).onboard_guard, False),
+    ("onboard_guard", "stored",
+     lambda tmp: config_from_args(_resume_args(tmp, {"onboard_guard": False})).onboard_guard, False),
+    ("onboard_guard", "default", lambda tmp: config_from_args(_new_args(tmp)).onboard_guard, True),
     # --end has a command-line default, so the command line always gives it
     ("end", "command_line", lambda tmp: config_from_args(_resume_args(tmp, {"end": "hold"})).end, "land"),
     ("end", "command_line", lambda tmp: config_from_args(_resume_args(tmp, {}, "--end", "hold")).end, "hold"),
@@ -127,7 +132,7 @@ def test_the_whole_chain_command_line_over_stored_over_profile_over_default(tmp_
 #: A value each setting refuses (the test below checks that every declared setting has one).
 BAD = {"dir": 7, "profile": "", "method": "ksb", "budget": 0, "seed": -1, "prior": "simulated", "n_prior": -3,
        "confirm": -1, "widen": "yes", "warm_start": " ", "baseline_every": 2.5, "on_drift": "ignore", "rate_hz": 30,
-       "accept": 1, "end": "crash", "settle_s": float("nan"), "sysid": 300, "compid": 0,
+       "accept": 1, "end": "crash", "onboard_guard": "off", "settle_s": float("nan"), "sysid": 300, "compid": 0,
        "safety": {"z_min_m": "low"}, "options": ["beta"]}
 
 

@@ -40,7 +40,7 @@ PROFILE = "ardupilot-copter"
 def scripting_sitl():
     """ArduCopter SITL booted with SCR_ENABLE 1 (the setting takes effect at boot, as on a flight controller; the
     guard's installer refuses a vehicle without it)."""
-    sitl = sitl_or_skip("ardupilot", SPEEDUP, scripting=True)
+    sitl = sitl_or_skip("ardupilot", SPEEDUP)
     yield sitl
     sitl.stop()
     release_stopped()

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ksbo_mav.campaign.layout import CampaignDir, write_file
+from ksbo_mav.campaign.onboard import remove_leftover_guard
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.params import Snapshot, load_snapshot, write_param_files
@@ -46,6 +47,7 @@ def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], 
         check_identity(snap, v)
         base = snap.baseline()
         v.restore(base)
+        remove_leftover_guard(v, snap.params, log)
         others = [n for n, (val, _) in snap.params.items()
                   if n in v.params.table and n not in base and not autopilot_updated(v.stack.name, n)
                   and not n.startswith("SIM_")

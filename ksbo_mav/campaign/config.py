@@ -47,6 +47,7 @@ class CampaignConfig:
     rate_hz: int | None = _default("rate_hz")  # None: the profile's; settle() decides the rate flown
     accept: bool = _default("accept")
     end: str = _default("end")
+    onboard_guard: bool = _default("onboard_guard")
     settle_s: float = _default("settle_s")
     sysid: int | None = _default("sysid")
     compid: int | None = _default("compid")

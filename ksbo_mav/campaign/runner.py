@@ -37,6 +37,7 @@ from ksbo_mav.campaign.prior import campaign_prior
 from ksbo_mav.campaign.report.writer import write_report
 from ksbo_mav.campaign.resume import check_unchanged
 from ksbo_mav.campaign.search import search
+from ksbo_mav.campaign.onboard import install_guard, remove_guard
 from ksbo_mav.campaign.setup import baseline_params, connect, create_campaign
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent, summarize
 from ksbo_mav.campaign.trials import TrialLoop
@@ -109,11 +110,14 @@ class Campaign:
         try:
             link = self._preflight(v)
             self._record(v, link)
+            # After the snapshot (it holds MAV_GCS_SYSID as found), before the first trial.
+            install_guard(v, self.cfg.onboard_guard, self.base, self.cfg.safety, self.log)
             return self._fly(v)
         except (KeyboardInterrupt, KsboError) as exc:
             self._stop(v, exc)
             raise
         finally:
+            remove_guard(v, self.log)
             v.close()
 
     def _connect(self) -> Vehicle:

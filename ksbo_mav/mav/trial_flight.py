@@ -22,6 +22,7 @@ import numpy as np
 
 from ksbo_mav.errors import KsboError, LinkLost
 from ksbo_mav.mav.approach import Approach
+from ksbo_mav.mav.guard_script import GuardState
 from ksbo_mav.mav.monitor import Monitor
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.errors import VerifyError
@@ -119,15 +120,34 @@ class TrialFlight:
                 outcome, message, L, stop = T.SIGINT, "interrupted by the user", self._steps(rec), exc
             except KsboError as exc:
                 outcome, message, L = T.ERROR, str(exc), self._steps(rec)
+            # The guard's watch ends before our own recovery (it must not fight it); after a lost link, once the
+            # link is back (the restore waits for it).
+            guard_note = self._disarm_guard() if outcome is not T.LINK else ""
             restored, late = self._finish(rec, outcome, L)
+            if outcome is T.LINK:
+                guard_note = self._disarm_guard()
             if late is not None:  # the vehicle crashed right after the trial, as the baseline took over
                 outcome, message = late
+            if guard_note:
+                message = f"{message}; {guard_note}" if message else guard_note
         finally:
             link.taps.remove(rec.feed)
             link.tlog.close()
             link.tlog = None
         stats = LinkStats(lost_packets=rec.lost, rate_reasserts=v.telemetry.reasserts - reasserts0, lag_ms=tuple(lag))
         return FlownTrial(rec, outcome, message, L, restored, stats, stop)
+
+    def _disarm_guard(self) -> str:
+        """End the onboard guard's watch; what it did, when it acted, for the trial's message."""
+        guard = self.vehicle.guard
+        if guard is None:
+            return ""
+        try:
+            if guard.disarm_trial() == GuardState.TRIPPED:
+                return f"the onboard guard acted ({guard.last_text()})"
+        except KsboError as exc:
+            return f"the onboard guard was not disarmed: {exc}"
+        return ""
 
     def _steps(self, rec: TrialRecorder) -> int:
         lpn = self.vehicle.last_lpn
@@ -145,6 +165,8 @@ class TrialFlight:
     def _run(self, x: np.ndarray, approach: Approach, rms_ref: float | None, lag: list[float]) -> int:
         v, m = self.vehicle, self.mission
         g = v.guided
+        if v.guard is not None:
+            v.guard.arm_trial()  # GuardUnavailable when the guard does not answer: no trial flies without it
         v.write_gains(x)
         settle = max(1, int(round(self.settle_s * m.rate_hz)))
         g.follow(lambda j: (approach.begin, None, None), settle, m.dt_ms, lambda s: self._check(s, None), self.log)

@@ -51,6 +51,9 @@ class Vehicle:
         self.power = PowerWatch(link)  # battery figures and the vehicle's STATUSTEXTs
         #: Airborne in guided by us since our last landing: a later mode change or disarm is not ours to undo.
         self.had_control = False
+        #: The onboard guard (:class:`~ksbo_mav.mav.onboard_guard.OnboardGuard`) armed around every trial, if the
+        #: campaign installed one.
+        self.guard: Any = None
 
     # --- preflight -----------------------------------------------------------------------------------------
     @classmethod
