@@ -1,12 +1,19 @@
 """The onboard guard's protocol against the built-in simulator's simulated guard: the same installer, trial arming
 and removal the tuner runs on ArduPilot, and the guard's answers to a cut link and a pilot's mode change, watched
 on a second connection while the tuner stand-in (a process of its own) is killed. The simulator runs in real time
-so the stand-in's heartbeats keep the pace they have on a vehicle."""
+so the stand-in's heartbeats keep the pace they have on a vehicle. Then whole campaigns (``ksbo-mav tune`` on the
+lockstep simulator): the guard installed and removed without a trace, and a vehicle without scripting refused
+unless told to fly without the guard."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import pytest
 from guard_helpers import Observer, assert_baseline, start_tuner, stop
+from mav_tune_helpers import sim_and_endpoint
 
 from ksbo_mav.mav.guard_script import GUARD_PARAMS, GuardState, config_for, new_config_id
 from ksbo_mav.mav.link import Endpoint
@@ -101,5 +108,37 @@ def test_vehicle_without_scripting_is_refused_in_one_line():
         try:
             with pytest.raises(GuardUnavailable, match="set SCR_ENABLE to 1 and reboot"):
                 OnboardGuard(v.link, v.params, v.cmd).check_scripting()
+        finally:
+            v.close()
+
+
+def _tune(endpoint, d, *extra: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp",
+                           f"{endpoint.host}:{endpoint.port}", "--prior", "none", "--budget", "2", "--confirm", "0",
+                           *extra], capture_output=True, text=True, timeout=300, env=dict(os.environ, MAVLINK20="1"))
+
+
+def test_a_campaign_without_scripting_flies_nothing_unless_told_to_fly_without_the_guard(tmp_path):
+    with sim_and_endpoint("--set", "SCR_ENABLE=0") as (_, endpoint):
+        r = _tune(endpoint, tmp_path / "refused")
+        assert r.returncode != 0
+        assert "set SCR_ENABLE to 1 and reboot" in r.stderr and "--no-onboard-guard" in r.stderr
+        assert "Traceback" not in r.stderr
+        assert not list((tmp_path / "refused").glob("trials/trial_*.json"))
+        r = _tune(endpoint, tmp_path / "without", "--no-onboard-guard")
+        assert r.returncode == 0, r.stderr[-2000:]
+        assert "WITHOUT the onboard guard" in r.stdout + r.stderr
+        assert "WITHOUT the onboard guard" in (tmp_path / "without" / "report" / "index.html").read_text()
+
+
+def test_a_campaign_installs_the_guard_and_leaves_no_trace_of_it(tmp_path):
+    with sim_and_endpoint() as (sim, endpoint):
+        r = _tune(endpoint, tmp_path / "c")
+        assert r.returncode == 0, r.stderr[-2000:]
+        out = r.stdout + r.stderr
+        assert "onboard guard: running" in out and "onboard guard: removed" in out
+        v = _connect(sim)
+        try:
+            assert v.params.read("KSG_STATE") == 0 and v.params.read("MAV_GCS_SYSID") == 255
         finally:
             v.close()
