@@ -137,9 +137,9 @@ def test_verdict_comes_first_and_the_table_numbers_every_trial_as_the_console(ca
     rows = re.findall(r"<tr[^>]*><td>(\d+)</td><td class=\"l\">([^<]+)</td><td>([^<]+)</td>", table)
     journal = _journal(d)
     assert [int(n) for n, _, _ in rows] == [e["trial"] for e in journal]
-    # The console printed each trial with the same number and P.
-    for e in journal:
-        assert f"{e['kind']:>7} trial {e['trial']:3d}  P {e['P']:+.4f}" in console
+    # The console printed each trial with the same number, the table's name for it, and P.
+    for (n, role, _), e in zip(rows, journal):
+        assert f"trial {e['trial']:3d} {role:<21} P {e['P']:+.4f}" in console
     kinds = [k for _, k, _ in rows]
     assert kinds[0] == "baseline" and kinds.count("prior") == 2 and kinds[-2:] == ["confirmation"] * 2
     assert [f"{e['P']:+.4f}" for e in journal] == [p for _, _, p in rows]
