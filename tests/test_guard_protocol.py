@@ -120,7 +120,7 @@ def _tune(endpoint, d, *extra: str) -> subprocess.CompletedProcess:
 
 def test_a_campaign_without_scripting_flies_nothing_unless_told_to_fly_without_the_guard(tmp_path):
     with sim_and_endpoint("--set", "SCR_ENABLE=0") as (_, endpoint):
-        r = _tune(endpoint, tmp_path / "refused")
+        r = _tune(endpoint, tmp_path / "refused", "--onboard-guard")
         assert r.returncode != 0
         assert "set SCR_ENABLE to 1 and reboot" in r.stderr and "--no-onboard-guard" in r.stderr
         assert "Traceback" not in r.stderr
@@ -133,7 +133,7 @@ def test_a_campaign_without_scripting_flies_nothing_unless_told_to_fly_without_t
 
 def test_a_campaign_installs_the_guard_and_leaves_no_trace_of_it(tmp_path):
     with sim_and_endpoint() as (sim, endpoint):
-        r = _tune(endpoint, tmp_path / "c")
+        r = _tune(endpoint, tmp_path / "c", "--onboard-guard")
         assert r.returncode == 0, r.stderr[-2000:]
         out = r.stdout + r.stderr
         assert "onboard guard: running" in out and "onboard guard: removed" in out

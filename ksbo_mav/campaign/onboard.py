@@ -1,10 +1,12 @@
 """The campaign's onboard guard: installed before the first trial, removed when the campaign ends however it ends,
 and by ``ksbo-mav restore``.
 
-On ArduPilot (and the built-in simulator, which simulates it) the guard is required: without scripting the
-campaign stops before flying, naming what to set, unless ``--no-onboard-guard`` (then the console says what that
-leaves, and the settings, hence the report, record it). PX4 runs no scripts: there is no guard to install, and the
-console says so; its own link-loss failsafe (checked by :mod:`ksbo_mav.campaign.link_loss`) is the backstop.
+The guard is opt-in for now (``--onboard-guard``): installed, it still hides the vehicle's arming refusal text and
+keeps the trial's start marker out of ArduPilot's DataFlash log. Asked for on ArduPilot (and the built-in simulator,
+which simulates it) without scripting, the campaign stops before flying, naming what to set; without it the console
+says what that leaves, and the settings, hence the report, record it. PX4 runs no scripts: there is no guard to
+install, and the console says so; its own link-loss failsafe (checked by :mod:`ksbo_mav.campaign.link_loss`) is
+the backstop.
 """
 
 from __future__ import annotations
@@ -17,8 +19,8 @@ from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.mav.onboard_guard import GCS_SYSID_PARAMS, GuardUnavailable, OnboardGuard
 from ksbo_mav.mav.vehicle import Vehicle
 
-WITHOUT = ("flying WITHOUT the onboard guard (--no-onboard-guard): if the link is lost during a trial, the trial "
-           "gains keep flying until it comes back")
+WITHOUT = ("flying WITHOUT the onboard guard (--onboard-guard installs it): if the link is lost during a trial, "
+           "the trial gains keep flying until it comes back")
 
 
 def install_guard(v: Vehicle, wanted: bool, base: dict[str, float], safety: dict[str, float],

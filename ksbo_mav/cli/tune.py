@@ -54,9 +54,9 @@ def add_parser(subparsers) -> None:
     g.add_argument("--accept", action="store_true", help=_help("accept", " (`ksbo-mav accept DIR --force` "
                                                                           "writes them anyway)"))
     g.add_argument("--end", metavar="{land,hold}", default="land", help=_help("end"))
-    g.add_argument("--no-onboard-guard", dest="onboard_guard", action="store_false", default=None,
-                   help="fly without the onboard guard (a lost link then leaves the trial gains flying until it "
-                        "comes back; docs/flight-checklist.md)")
+    g.add_argument("--onboard-guard", dest="onboard_guard", action=argparse.BooleanOptionalAction, default=None,
+                   help="install the onboard guard that restores the baseline on a lost link (ArduPilot Lua; off "
+                        "unless given, for now: docs/flight-checklist.md)")
     g.add_argument("--json", action="store_true", help="print the final summary as JSON")
     g = p.add_argument_group(GROUPS[4])
     g.add_argument("--method", help=_help("method", "; or " + ", ".join(m for m in METHODS
@@ -141,7 +141,7 @@ def config_from_args(args: argparse.Namespace):
         given["options"] = dict(option_arg(o) for o in args.option)  # they define the campaign too
     # --end has a default, so it is always given; --accept only turns accepting on.
     resumable = {"end": args.end, **({"accept": True} if args.accept else {}),
-                 **({"onboard_guard": False} if args.onboard_guard is False else {}),
+                 **({"onboard_guard": args.onboard_guard} if args.onboard_guard is not None else {}),
                  **{k: getattr(args, k) for k in ("sysid", "compid", "baseline_every", "on_drift")
                     if getattr(args, k) is not None}}
     for name, value in {**given, **resumable}.items():

@@ -138,7 +138,9 @@ class Server:
             f.land_speed = value
 
     def _write_fault(self, name: str) -> str | None:
-        if name.startswith("SIM_"):  # the fault switches themselves always get through
+        # The fault switches themselves always get through, and so do the onboard guard's own parameters (KSG_*:
+        # the script's, not the vehicle's): a fault counts the writes of the vehicle's parameters only.
+        if name.startswith(("SIM_", "KSG_")):
             return None
         n = int(self.params["SIM_CRASH_WRITES"])
         if n > 0:  # counts vehicle-parameter writes down; the last one crashes an armed vehicle
