@@ -6,10 +6,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ksbo_mav.errors import InputError, UnsafeStartError
-from ksbo_mav.opt import METHODS, run_method
+from ksbo_mav.errors import InputError
+from ksbo_mav.opt import METHODS, run_problem
 from ksbo_mav.opt.options import options_for
-from ksbo_mav.opt.problem import Problem, build_result
+from ksbo_mav.opt.problem import Problem
 from ksbo_mav.opt.result import OptimizeResult
 
 
@@ -109,11 +109,4 @@ def optimize(
         fun=fun, lower=lower, upper=upper, x0=(x - lower) / (upper - lower), budget=int(budget),
         p_min=float(p_min), prior_X=pX, prior_y=py, callback=callback,
     )
-    ev0, y0 = problem.evaluate_full(problem.x0)
-    if check_x0 and (ev0.censored or y0 < p_min):
-        what = f"fun(x0) = {y0:.6g} < p_min = {p_min:.6g}" if not ev0.censored else f"the trial {ev0.outcome.value}"
-        raise UnsafeStartError(f"x0 is unsafe: {what}", None if ev0.value is None else ev0.value, float(p_min))
-    if problem.remaining == 0:
-        X, _ = problem.data()
-        return build_result(problem, method, len(X) - 1, info={"options": opts})
-    return run_method(method, problem, opts, seed)
+    return run_problem(problem, method, opts, seed, check_x0=check_x0)
