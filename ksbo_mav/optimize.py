@@ -44,7 +44,7 @@ def optimize(
 
     Args:
         fun: ``fun(x: ndarray (d,)) -> float``; larger is better, values below ``p_min`` are unsafe. It may also
-            return :class:`ksbo_mav.opt.outcome.Evaluation` ``(value, outcome)`` to report a trial the monitor
+            return :class:`ksbo_mav.opt.evaluation.Evaluation` ``(value, outcome)`` to report a trial the monitor
             aborted (censored: the optimiser learns "aborts here", not a value) or one that crashed.
         x0: (d,) known-safe start, inside ``bounds``. It is the first evaluation (counted in ``budget``).
         bounds: (d, 2) lower/upper bounds (lower < upper); the methods work in the unit cube of this box.

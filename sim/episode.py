@@ -17,7 +17,7 @@ from ksbo_sim.dynamics import integrate
 from ksbo_sim.pid import PlanarPID
 from ksbo_sim.plants import ActuatorState, Plant
 from ksbo_task.figure8 import Figure8
-from ksbo_task.monitor import NO_TRIP, MonitorLimits, Outcome, planar_monitor_limits, trip_codes
+from ksbo_task.limit_checks import NO_TRIP, MonitorLimits, Outcome, planar_monitor_limits, trip_codes
 
 #: Crash codes stored in :attr:`Rollout.reason`.
 OK, OUT_X, GROUND, CEILING, TILT = 0, 1, 2, 3, 4
@@ -54,7 +54,7 @@ class MonitorConfig:
     """In-flight monitor and backup: on a trip the flight switches to ``backup`` gains holding ``hold``.
 
     Attributes:
-        limits: trip thresholds (:func:`ksbo_task.monitor.trip_codes`).
+        limits: trip thresholds (:func:`ksbo_task.limit_checks.trip_codes`).
         backup: (9,) backup gains (the baseline a0 by default).
         hold: (x, z) point the backup holds.
         recover_steps: control steps the backup must stay inside the environment bounds for the flight to count
@@ -119,7 +119,7 @@ class Rollout:
         inputs: (B, N, 2) thrusts applied during step k; NaN after an early stop.
         L: (B,) control steps of the mission flown (up to the crash or the monitor's trip).
         reason: (B,) crash code (see ``REASONS``), 0 for a completed episode or a recovered abort.
-        trip: (B,) monitor trip code (``ksbo_task.monitor``; 0 = no trip) or None without a monitor.
+        trip: (B,) monitor trip code (``ksbo_task.limit_checks``; 0 = no trip) or None without a monitor.
     """
 
     t: np.ndarray

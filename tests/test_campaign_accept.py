@@ -43,7 +43,7 @@ def test_journal_replay_answers_a_stress_reflight_only_from_a_journalled_stress_
     import numpy as np
 
     from ksbo_mav.campaign.replay import JournalReplay
-    from ksbo_mav.opt.outcome import Evaluation, Outcome
+    from ksbo_mav.opt.evaluation import Evaluation, Outcome
 
     a, b = (0.1,), (0.2,)
     done = [JournalEntry(kind="opt", trial=0, x=a, P=0.5, outcome=TrialOutcome("ok"), record="", restored=True),

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ksbo_mav.mav.gains import trust_region
-from ksbo_mav.opt.outcome import Outcome
+from ksbo_mav.opt.evaluation import Outcome
 from ksbo_mav.simulated.copter_objective import COPTER_PLANTS, CopterObjective
 
 

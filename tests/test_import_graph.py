@@ -144,7 +144,7 @@ def test_only_the_simulated_objectives_and_the_simulator_commands_import_the_sim
 
 
 def test_the_task_package_imports_neither_the_tuner_nor_the_simulator() -> None:
-    assert "ksbo_task.monitor" in GRAPH and "ksbo_task.lead_in" in GRAPH["ksbo_task.figure8_ne"]
+    assert "ksbo_task.limit_checks" in GRAPH and "ksbo_task.lead_in" in GRAPH["ksbo_task.figure8_ne"]
     bad = sorted(f"{m} imports {w}" for m, deps in GRAPH.items() if _within(m, ("ksbo_task",))
                  for w in deps if _within(w, ("ksbo_mav", "ksbo_sim")))
     assert bad == []
@@ -153,7 +153,7 @@ def test_the_task_package_imports_neither_the_tuner_nor_the_simulator() -> None:
 def test_only_the_entry_points_import_the_safe_bo_loop() -> None:
     """The strategies receive what they need as arguments; only the loop's builders and drivers import it."""
     users = sorted(m for m, deps in GRAPH.items() if "ksbo_mav.opt.methods.safe_bo" in deps)
-    assert users == ["ksbo_mav.opt.methods.build", "ksbo_mav.opt.methods.runner", "ksbo_mav.opt.methods.safe_methods"]
+    assert users == ["ksbo_mav.opt.methods.build", "ksbo_mav.opt.methods.loop", "ksbo_mav.opt.methods.safe_methods"]
 
 
 def test_no_module_outgrows_about_300_lines() -> None:
@@ -169,3 +169,14 @@ def test_the_flying_code_never_imports_the_report() -> None:
              and any(d == report or d.startswith(report + ".") for d in deps)}
     assert users and users <= {"ksbo_mav.campaign.ending", "ksbo_mav.campaign.runner", "ksbo_mav.cli.report",
                                "ksbo_mav.cli.tune"}, sorted(users)
+
+
+def test_no_two_modules_share_a_name():
+    """A reader who meets ``figure8`` or ``monitor`` in a traceback should not have to ask which one: module names
+    are unique across ksbo_mav and ksbo_task (the commands under cli/ are named after the command they run)."""
+    seen: dict[str, list[str]] = {}
+    for name, path in MODULES.items():
+        if name.startswith("ksbo_sim") or name.startswith("ksbo_mav.cli.") or path.stem in ("__init__", "__main__"):
+            continue
+        seen.setdefault(path.stem, []).append(name)
+    assert {stem: names for stem, names in seen.items() if len(names) > 1} == {}

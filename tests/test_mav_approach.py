@@ -20,7 +20,7 @@ from ksbo_mav.mav.vehicle import Vehicle
 from ksbo_mav.profile_sections import MissionSpec
 from ksbo_mav.profiles import load_profile
 from ksbo_mav.simulated.planar_objective import SimObjective
-from ksbo_task.monitor import planar_monitor_limits
+from ksbo_task.limit_checks import planar_monitor_limits
 from ksbo_task.starts import random_initial_states
 
 #: A recommendation of a MAVLink campaign (method ksbo, test seed 1): 0.79 from a settled hover, but

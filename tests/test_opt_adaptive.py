@@ -10,7 +10,7 @@ import pytest
 
 import ksbo_mav
 from ksbo_mav.opt.models.failure_model import FailureModel, learn_scales
-from ksbo_mav.opt.outcome import Evaluation, Outcome
+from ksbo_mav.opt.evaluation import Evaluation, Outcome
 from ksbo_mav.opt.acquisition.trust_region import TrustRegion
 
 CENTER = np.array([0.6, 0.45])
@@ -146,7 +146,7 @@ def test_aborted_trials_are_censored_not_values() -> None:
 
 def test_recommendation_refies_top_candidates_and_rejects_a_bistable_one() -> None:
     """B flew 1.0 once but aborts when re-flown; A flies 0.8 reliably: re-flying picks A."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.recommend import best_expected
     from ksbo_mav.opt.methods.build import build_safe_bo
@@ -170,7 +170,7 @@ def test_after_a_failure_the_recommendation_weighs_each_candidates_failures() ->
     """B flew 0.95 twice but failed once when re-flown; A flew 0.8 four times and nobody failed near it. Ranked by
     the mean over its completed flights B would win; by expected score under the failure model A does. Control:
     the same flights with B's failure completed keep B."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.recommend import expected_value
     from ksbo_mav.opt.methods.build import build_safe_bo
@@ -257,7 +257,7 @@ def test_monitor_outcomes_reach_the_result_counts() -> None:
 # -- small-budget phases, re-fly candidates, fallback, backup trust ---------------------------------------------
 
 def _adaptive_bo(**adaptive):
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
 
@@ -280,7 +280,7 @@ def test_fallback_never_refiles_a_point_the_failure_model_expects_to_abort() -> 
 
 
 def test_refly_candidates_include_the_best_single_flight() -> None:
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
 
@@ -340,7 +340,7 @@ def test_exclusion_balls_grow_when_failures_cluster_and_stay_fixed_otherwise() -
 def test_no_query_and_no_fallback_inside_a_grown_exclusion_ball() -> None:
     """After two clustered aborts, the state machine certifies nothing within the grown (0.1) ball of either,
     although the main GP never saw them (censored); the point 0.07 from the first abort was allowed before."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
 
@@ -364,7 +364,7 @@ def test_no_query_and_no_fallback_inside_a_grown_exclusion_ball() -> None:
 def test_a_failure_at_new_gains_shrinks_the_learnt_safety_scale_a_failed_reflight_does_not() -> None:
     """The SE-ARD GP here has orders (d,), so it is the scale model; its ML-II lengthscales are multiplied by
     ``failure_scale_shrink`` per failure at new gains (the certified region shrinks), not for a failed re-flight."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
     from ksbo_mav.opt.methods.safe_bo import SafeBO
@@ -397,7 +397,7 @@ def test_an_unsafe_flight_at_new_gains_shrinks_a_fixed_safety_scale_a_safe_one_o
     """Strict mode (no monitor, no learnt scale): ``unsafe_scale_shrink`` multiplies the fixed lengthscale of the
     local safety GP per completed flight below p_min at new gains; a safe flight and an unsafe re-flight of flown
     gains leave it. The additive main GP keeps its own lengthscale."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
     from ksbo_mav.opt.methods.safe_bo import SafeBO
@@ -436,7 +436,7 @@ def test_an_unsafe_flight_at_new_gains_shrinks_a_fixed_safety_scale_a_safe_one_o
 
 def test_a_refly_candidate_that_fails_is_not_flown_again() -> None:
     """Re-fly phase of 6 flights over 2 candidates: B aborts at its first re-flight, so the rest go to A."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
 
@@ -458,7 +458,7 @@ def test_a_refly_candidate_that_fails_is_not_flown_again() -> None:
 def test_when_every_refly_candidate_failed_the_best_point_clear_of_failures_is_flown() -> None:
     """Only B is a candidate and it aborts: the next re-flights go to A (4 clean flights, far from B), which
     joins the re-flown set; the final choice is A."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
 
@@ -480,7 +480,7 @@ def test_ard_acquisition_stops_paying_for_uncertainty_along_flat_dimensions() ->
     """``ard_acquisition``: the UCB's GP takes the learnt safety lengthscales where they are longer than the main
     GP's, so a step along a dimension the data show to be flat earns less UCB than the same step along the one that
     matters; the safety bound (LCB) is the main and safety GPs' and does not change."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
     from ksbo_mav.opt.methods.safe_bo import SafeBO
@@ -520,7 +520,7 @@ def test_a_lucky_flight_does_not_stop_the_trust_region_growing() -> None:
     posterior mean though neither beats 0.95 as flown. The second becomes the incumbent: a success, and the region
     grows (one success grows it here). A trial that does not become the incumbent is no success."""
     from ksbo_mav.opt.methods.build import build_safe_bo
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
 
     model = SafetyModel(ModelSpec(orders=(2,), lengthscale=0.1, signal_std=1.0, noise_std=0.3), 2)
@@ -541,7 +541,7 @@ def test_the_trust_region_centre_is_never_inside_a_failures_exclusion_ball() -> 
     centres on B (0.6, clear of failures) instead. A centre inside a ball wider than the trust region left no
     candidate to query: a 200-flight nominal run re-flew one point near a0 for its last ~80 flights. Control:
     fixed balls keep A."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
 
@@ -564,7 +564,7 @@ def test_a_scale_refit_fits_the_safety_gp_once_and_matches_a_fresh_fit(monkeypat
     """The safety GP is fitted once per refit of its learnt scale (the fit before the scale was learnt only fixed
     its signal and noise scales on the first call), and the posterior is that of a fresh fit with the learnt
     lengthscales."""
-    from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig
+    from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig
     from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
     from ksbo_mav.opt.methods.build import build_safe_bo
 

@@ -7,7 +7,7 @@ import pytest
 
 import ksbo_mav
 from ksbo_mav.errors import InputError, ObjectiveError, UnsafeStartError
-from ksbo_mav.opt.outcome import Evaluation, Outcome
+from ksbo_mav.opt.evaluation import Evaluation, Outcome
 
 BOUNDS = np.array([[0.0, 1.0], [0.0, 1.0]])
 X0 = np.array([0.5, 0.5])

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 import ksbo_mav
 from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel
 from ksbo_mav.opt.methods.build import build_safe_bo
-from ksbo_mav.opt.config import SafeBOConfig
+from ksbo_mav.opt.method_config import SafeBOConfig
 from ksbo_mav.opt.methods.safe_bo import SafeBO
 
 D = 3

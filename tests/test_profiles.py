@@ -51,7 +51,7 @@ def test_planar_profile_limits_are_the_in_process_monitors():
     """One set of limits for the planar task: a MAVLink flight of the built-in vehicle trips where the in-process
     monitor trips (same limits and logic), inside the environment bounds the simulator crashes at."""
     from ksbo_mav.mav.monitor import limits_from_profile
-    from ksbo_task.monitor import MonitorLimits, planar_monitor_limits
+    from ksbo_task.limit_checks import MonitorLimits, planar_monitor_limits
 
     lim = limits_from_profile(load_profile("sim-planar"))
     assert lim == planar_monitor_limits()

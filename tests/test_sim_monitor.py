@@ -8,11 +8,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from ksbo_mav.opt.outcome import Evaluation
+from ksbo_mav.opt.evaluation import Evaluation
 from ksbo_mav.simulated.planar_objective import SimObjective
 from ksbo_sim.episode import BACKUP_GAINS, EpisodeConfig, MonitorConfig, simulate
 from ksbo_sim.plants import PLANTS
-from ksbo_task.monitor import FENCE, TILT, TRACK, MonitorLimits, Outcome, check_state, trip_codes
+from ksbo_task.limit_checks import FENCE, TILT, TRACK, MonitorLimits, Outcome, check_state, trip_codes
 from ksbo_task.starts import fixed_initial_states
 
 A0 = np.array(BACKUP_GAINS)

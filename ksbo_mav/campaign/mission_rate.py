@@ -136,7 +136,7 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
 
 def record_link(d: CampaignDir, fig: LinkFigures, on_link_loss: str | None = None) -> None:
     """Append the figures to ``link.json`` (a list: the campaign's start and each resume), with what the vehicle
-    does if the link dies mid-trial (``on_link_loss``, PX4: :mod:`ksbo_mav.campaign.link_loss`)."""
+    does if the link dies mid-trial (``on_link_loss``, PX4: :mod:`ksbo_mav.campaign.link_loss_policy`)."""
     path = d.link
     try:
         old = json.loads(path.read_text()) if path.is_file() else []

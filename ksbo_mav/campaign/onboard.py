@@ -5,7 +5,7 @@ The guard is opt-in for now (``--onboard-guard``): installed, it still hides the
 keeps the trial's start marker out of ArduPilot's DataFlash log. Asked for on ArduPilot (and the built-in simulator,
 which simulates it) without scripting, the campaign stops before flying, naming what to set; without it the console
 says what that leaves, and the settings, hence the report, record it. PX4 runs no scripts: there is no guard to
-install, and the console says so; its own link-loss failsafe (checked by :mod:`ksbo_mav.campaign.link_loss`) is
+install, and the console says so; its own link-loss failsafe (checked by :mod:`ksbo_mav.campaign.link_loss_policy`) is
 the backstop.
 """
 

@@ -15,7 +15,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ksbo_mav.campaign.journal import JournalEntry
-from ksbo_mav.opt.outcome import Evaluation
+from ksbo_mav.opt.evaluation import Evaluation
 
 
 def evaluation(e: JournalEntry) -> Evaluation:

@@ -30,7 +30,7 @@ from ksbo_mav.campaign.ending import (confirm_failures, end_flight, fly_confirma
                                       write_result)
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir
-from ksbo_mav.campaign.link_loss import LinkLossChoice, check_link_loss
+from ksbo_mav.campaign.link_loss_policy import LinkLossChoice, check_link_loss
 from ksbo_mav.campaign.mission_rate import fly_at, record_link
 from ksbo_mav.campaign.plan import campaign_plan
 from ksbo_mav.campaign.prior import campaign_prior

@@ -15,7 +15,7 @@ from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.summary import TrialEvent
 from ksbo_mav.errors import CampaignPaused, PreflightError, TrialInterrupted, TrialStopped, VehicleError
 from ksbo_mav.mav.objective import MavlinkObjective
-from ksbo_mav.opt.outcome import Evaluation
+from ksbo_mav.opt.evaluation import Evaluation
 from ksbo_task.flight import Flight
 
 #: How often a trial spoiled by this computer or the link (TrialOutcome.retry) is flown again.

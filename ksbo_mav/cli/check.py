@@ -78,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_mav.errors import InputError
 
     if args.plot:
-        from ksbo_mav.flightlog.plot import check_plot_path
+        from ksbo_mav.flightlog.log_plots import check_plot_path
 
         check_plot_path(args.plot)
     ref_path = confirmation_log(Path(args.campaign))
@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _plot(flights: list[dict[str, Any]], ref_lag: float, threshold: float, path: str) -> None:
-    from ksbo_mav.flightlog.plot import _save
+    from ksbo_mav.flightlog.log_plots import _save
     from ksbo_mav.plotting import pyplot
 
     plt = pyplot()

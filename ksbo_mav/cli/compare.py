@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_mav.flightlog import score_file
 
     if args.plot:
-        from ksbo_mav.flightlog.plot import check_plot_path
+        from ksbo_mav.flightlog.log_plots import check_plot_path
 
         check_plot_path(args.plot)
     ra, log_a, mission = score_file(args.a, args.profile, args.partial, args.segment_a)
@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     kind = "figure-8" if both_f8 else "tracking segment (no figure-8 in both)"
     rows = _rows(sa, sb)
     if args.plot:
-        from ksbo_mav.flightlog.plot import plot_compare
+        from ksbo_mav.flightlog.log_plots import plot_compare
 
         plot_compare([(f"A: {args.a}", log_a, sa), (f"B: {args.b}", log_b, sb)], mission, args.plot)
     if args.json:

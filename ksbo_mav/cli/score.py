@@ -54,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_mav.flightlog import detect_format
 
     if args.plot:
-        from ksbo_mav.flightlog.plot import check_plot_path
+        from ksbo_mav.flightlog.log_plots import check_plot_path
 
         check_plot_path(args.plot)
     fmt = detect_format(args.log)
@@ -81,7 +81,7 @@ def _run_generic(args: argparse.Namespace, warning: str | None = None) -> int:
 
 
 def _plot(log, result: dict[str, Any], mission, path: str) -> None:
-    from ksbo_mav.flightlog.plot import plot_segment
+    from ksbo_mav.flightlog.log_plots import plot_segment
 
     segs = result["segments"]
     seg = next((s for s in segs if s["figure8"]), segs[0])

@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         "y_std": sel.y_std,
     }
     if args.plot:
-        from ksbo_mav.select.plot import plot_cree
+        from ksbo_mav.select.cree_plot import plot_cree
 
         result["plot"] = str(plot_cree(sel, args.plot, title=f"C_ree on {args.csv}"))
     if args.json:

@@ -197,7 +197,7 @@ def print_summary(s: Any, log) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ksbo_mav.campaign import Campaign
-    from ksbo_mav.campaign.link_loss import LinkLossChoice
+    from ksbo_mav.campaign.link_loss_policy import LinkLossChoice
 
     cfg = config_from_args(args)
     endpoint = endpoint_from_args(args)

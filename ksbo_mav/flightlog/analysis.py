@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.errors import InputError
-from ksbo_mav.flightlog.figure8 import Fit, _ref_marker, recognise_figure8, recognise_figure8s, reference  # noqa: F401
+from ksbo_mav.flightlog.figure8_fit import Fit, _ref_marker, recognise_figure8, recognise_figure8s, reference  # noqa: F401
 from ksbo_mav.flightlog.model import FlightLog, Segment
 from ksbo_mav.flightlog.segments import find_segments as _find
 from ksbo_mav.flightlog.spectrum import error_spectrum, summary

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ksbo_mav.errors import InputError
-from ksbo_task.monitor import MonitorLimits
+from ksbo_task.limit_checks import MonitorLimits
 from ksbo_task.starts import random_initial_states, stress_initial_state
 
 if TYPE_CHECKING:

@@ -121,7 +121,7 @@ def render_script(cfg: GuardConfig) -> bytes:
 
 
 def config_for(limits: Any, link_timeout_s: float, baseline: dict[str, float], config_id: int) -> GuardConfig:
-    """The guard's configuration from the monitor's limits (:class:`ksbo_task.monitor.MonitorLimits`, overrides
+    """The guard's configuration from the monitor's limits (:class:`ksbo_task.limit_checks.MonitorLimits`, overrides
     applied), the profile's link timeout and the baseline ``{autopilot parameter name: value}``."""
     return GuardConfig(dict(baseline), limits.x_max, limits.y_max, limits.z_min, limits.z_max, limits.tilt_max_deg,
                        float(link_timeout_s), limits.brake_accel, config_id)

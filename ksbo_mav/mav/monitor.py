@@ -17,7 +17,7 @@ import numpy as np
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.outcome import TrialOutcome
 from ksbo_mav.profiles import Profile
-from ksbo_task.monitor import MonitorLimits, check_state
+from ksbo_task.limit_checks import MonitorLimits, check_state
 
 #: The abort thresholds: the task package's dataclass (one implementation of the limit checks for the MAVLink
 #: monitor and the simulators).
@@ -52,7 +52,7 @@ class Monitor:
 
     def check_sample(self, lpn: Any, att: Any | None, ref_ned: np.ndarray | None) -> tuple[str, str] | None:
         """Position/attitude/tracking checks on one LOCAL_POSITION_NED (+ latest ATTITUDE, + the reference sent
-        for that instant, NED, or None during holds). The checks are :func:`ksbo_task.monitor.check_state`, the
+        for that instant, NED, or None during holds). The checks are :func:`ksbo_task.limit_checks.check_state`, the
         same code the in-process simulator's monitor runs; the sample's velocity feeds the stopping-point fence
         when the profile sets ``brake_accel_mps2``."""
         tilt = None if att is None else max(abs(float(att.pitch)), abs(float(att.roll)))

@@ -2,14 +2,14 @@
 
 ``TrialOutcome`` is a ``str`` enum, so it is written to JSON (trial records, the journal, the tlog end marker) as
 its short code and compares equal to it. :attr:`TrialOutcome.evaluation` maps it onto the optimiser's coarser
-:class:`ksbo_mav.opt.outcome.Outcome` (complete / aborted / crashed), the same classes the in-process simulators use.
+:class:`ksbo_mav.opt.evaluation.Outcome` (complete / aborted / crashed), the same classes the in-process simulators use.
 """
 
 from __future__ import annotations
 
 from enum import Enum
 
-from ksbo_mav.opt.outcome import Outcome
+from ksbo_mav.opt.evaluation import Outcome
 
 
 class TrialOutcome(str, Enum):

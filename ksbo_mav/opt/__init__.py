@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from ksbo_mav.errors import InputError, UnsafeStartError
 from ksbo_mav.opt.options import Options, options_for
-from ksbo_mav.opt.outcome import Evaluation, Outcome
+from ksbo_mav.opt.evaluation import Evaluation, Outcome
 from ksbo_mav.opt.problem import Problem, build_result
 from ksbo_mav.opt.result import OptimizeResult
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ksbo_mav.opt.outcome import Outcome
+from ksbo_mav.opt.evaluation import Outcome
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """Method options: the settings a user or a benchmark sets (:data:`OPTIONS`, each with one default, one line of
 documentation and a declared constraint), the method presets, and their validation in one place.
 
-:class:`Options` is the composition of the typed configs of :mod:`ksbo_mav.opt.config`, which hold every field's
+:class:`Options` is the composition of the typed configs of :mod:`ksbo_mav.opt.method_config`, which hold every field's
 one default — the user options and the internal knobs the presets set (e.g. the candidate counts' refinement,
 the trust region's growth). ``optimize(**options)`` and ``tune --option`` accept the names in :data:`OPTIONS`.
 Why each preset value was chosen, with the measurements: benchmarks/notes/.
@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 from typing import Any, Mapping
 
 from ksbo_mav.errors import InputError
-from ksbo_mav.opt.config import (AdaptiveConfig, BaselineConfig, ModelConfig, SafeBOConfig, SelectionConfig,
+from ksbo_mav.opt.method_config import (AdaptiveConfig, BaselineConfig, ModelConfig, SafeBOConfig, SelectionConfig,
                                  part)
 from ksbo_mav.opt.constraints import BOOL, Choice, Constraint, Interval, Orders, violation
 

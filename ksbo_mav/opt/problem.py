@@ -13,7 +13,7 @@ from typing import Callable
 
 import numpy as np
 
-from ksbo_mav.opt.outcome import Evaluation, Outcome, as_evaluation
+from ksbo_mav.opt.evaluation import Evaluation, Outcome, as_evaluation
 from ksbo_mav.opt.result import OptimizeResult
 
 
@@ -26,7 +26,7 @@ class Problem:
     """Budgeted objective in the unit cube.
 
     Attributes:
-        fun: physical-unit objective ``fun(x: (d,)) -> float | Evaluation`` (``opt.outcome``); larger is better,
+        fun: physical-unit objective ``fun(x: (d,)) -> float | Evaluation`` (``opt.evaluation``); larger is better,
             ``< p_min`` unsafe; aborted/crashed trials are censored.
         lower, upper: (d,) box bounds (physical).
         x0: (d,) known-safe start in the unit cube.

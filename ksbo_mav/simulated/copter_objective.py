@@ -4,7 +4,7 @@ the flight ended.
 It scores exactly like a MAVLink campaign on the same vehicle profile (``ardupilot-copter`` or ``px4-copter``):
 lap-2 RMS tracking error of the horizontal figure-8, ``P = 1 − RMS / (unsafe_rms_ratio · RMS_baseline)`` with the
 baseline flown once at construction, so the baseline scores 0.5. The profile's ``[safety]`` limits are checked on
-every sample by the shared monitor code (:func:`ksbo_task.monitor.check_state`): a flight that trips them is
+every sample by the shared monitor code (:func:`ksbo_task.limit_checks.check_state`): a flight that trips them is
 *aborted* (the tuner would stop it and restore the baseline; the backup's recovery itself is not simulated in
 process), one the simulator reports as crashed is *crashed*. The JSBSim model is deterministic: re-flying the same
 gains gives the same P (a SITL's repeat noise is a few per cent of RMS).
@@ -22,9 +22,9 @@ import numpy as np
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.monitor import limits_from_profile
-from ksbo_mav.opt.outcome import Evaluation, Outcome
+from ksbo_mav.opt.evaluation import Evaluation, Outcome
 from ksbo_mav.profiles import Profile, load_profile
-from ksbo_task.monitor import check_state
+from ksbo_task.limit_checks import check_state
 
 #: Copter plants of the suite: name → (vehicle profile, simulator personality).
 COPTER_PLANTS: dict[str, tuple[str, str]] = {

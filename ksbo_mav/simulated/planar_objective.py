@@ -16,7 +16,7 @@ from ksbo_mav.scoring import Score, ScoreConfig, score_rollout, score_trajectory
 from ksbo_sim.episode import REASONS, EpisodeConfig, MonitorConfig, Rollout, simulate
 from ksbo_sim.plants import Plant, plant as suite_plant
 from ksbo_task.flight import Flight, Trajectory
-from ksbo_task.monitor import Outcome
+from ksbo_task.limit_checks import Outcome
 from ksbo_task.starts import fixed_initial_states, random_initial_states, stress_initial_state
 
 
@@ -44,7 +44,7 @@ class SimObjective:
         plant: a :class:`ksbo_sim.plants.Plant` or a suite name (``ksbo_sim.plants.PLANTS``); its ``j_hi`` scales
             P unless ``score`` is given.
         monitor: True (the default in-process monitor and backup), a :class:`MonitorConfig`, or False/None (the
-            paper's strict mode). With a monitor, calls return :class:`ksbo_mav.opt.outcome.Evaluation`
+            paper's strict mode). With a monitor, calls return :class:`ksbo_mav.opt.evaluation.Evaluation`
             (P and the outcome complete / aborted / crashed) so the optimiser can treat aborts as censored.
     """
 
@@ -87,9 +87,9 @@ class SimObjective:
         return self.trial(x)
 
     def trial(self, x: np.ndarray, init: np.ndarray | None = None) -> Any:
-        """One episode as an :class:`ksbo_mav.opt.outcome.Evaluation`: P and complete / aborted / crashed; from a
+        """One episode as an :class:`ksbo_mav.opt.evaluation.Evaluation`: P and complete / aborted / crashed; from a
         random initial velocity unless ``init`` (6,) is given."""
-        from ksbo_mav.opt.outcome import Evaluation
+        from ksbo_mav.opt.evaluation import Evaluation
 
         init = random_initial_states(1, self.rng, self.episode.figure8) if init is None else np.atleast_2d(init)
         r = self.rollout(np.atleast_2d(x), init)
@@ -112,7 +112,7 @@ class SimObjective:
 
     def scores(self, X: np.ndarray, init: np.ndarray, with_outcomes: bool = False) -> Any:
         """Score of each row of X (n, d) flown from the matching row of ``init`` (n, 6); with ``with_outcomes``
-        also the (n,) list of :class:`ksbo_task.monitor.Outcome`."""
+        also the (n,) list of :class:`ksbo_task.limit_checks.Outcome`."""
         X = np.atleast_2d(self.profile.check_gains(X, within_box=False))
         parts, outcomes = [], []
         for lo in range(0, X.shape[0], self.chunk):

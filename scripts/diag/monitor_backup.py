@@ -26,7 +26,7 @@ import numpy as np
 
 def monitors() -> dict[str, object]:
     from ksbo_sim.episode import MonitorConfig
-    from ksbo_task.monitor import planar_monitor_limits
+    from ksbo_task.limit_checks import planar_monitor_limits
 
     before = MonitorConfig(limits=replace(planar_monitor_limits(), brake_accel=None), attitude_priority=False)
     return {"before": before, "now": MonitorConfig()}
@@ -65,7 +65,7 @@ def fly(plant: str, n: int, seed: int) -> dict[str, tuple[object, np.ndarray]]:
 def plant_counts(plant: str, n: int, seed: int, flights: dict | None = None) -> dict[str, np.ndarray]:
     """Per monitor: (n,) outcome codes (0 complete, 1 aborted, 2 crashed) and (n,) P (key ``<monitor>_P``), same
     gains and starts; ``flights`` reuses a :func:`fly` result."""
-    from ksbo_task.monitor import Outcome
+    from ksbo_task.limit_checks import Outcome
 
     code = {Outcome.COMPLETE: 0, Outcome.ABORTED: 1, Outcome.CRASHED: 2}
     out: dict[str, np.ndarray] = {}
@@ -81,7 +81,7 @@ def crash_causes(rollout) -> tuple[dict[str, int], float]:
     from collections import Counter
 
     from ksbo_sim.episode import REASONS
-    from ksbo_task.monitor import TRIP_NAMES
+    from ksbo_task.limit_checks import TRIP_NAMES
 
     r = rollout
     causes: Counter[str] = Counter()

@@ -1,6 +1,6 @@
 """Assembling a :class:`~ksbo_mav.opt.methods.safe_bo.SafeBO`: which setting goes to which part.
 
-* :func:`build_safe_bo` — from the typed configs (opt.config) and the GPs.
+* :func:`build_safe_bo` — from the typed configs (opt.method_config) and the GPs.
 * :func:`safe_bo_for` — from a :class:`~ksbo_mav.opt.problem.Problem` and its :class:`~ksbo_mav.opt.options.Options`
   with the kernel orders chosen: the GPs (:func:`model_spec`), the configs (:func:`bo_config`) and the rest.
 """
@@ -13,7 +13,7 @@ from ksbo_mav.opt.acquisition.certificate import Certificate
 from ksbo_mav.opt.acquisition.exclusion import Exclusion
 from ksbo_mav.opt.acquisition.region import SearchRegion
 from ksbo_mav.opt.acquisition.trust_region import TrustRegion
-from ksbo_mav.opt.config import AdaptiveConfig, SafeBOConfig, part
+from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig, part
 from ksbo_mav.opt.methods.phases import RULES, Phases
 from ksbo_mav.opt.methods.recommend import Recommender
 from ksbo_mav.opt.methods.refly import ReflyPhase

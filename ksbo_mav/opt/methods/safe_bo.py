@@ -38,7 +38,7 @@ from ksbo_mav.opt.methods.refly import ReflyPhase
 from ksbo_mav.opt.models.safety_model import SafetyModel
 from ksbo_mav.opt.models.surrogate import Surrogate
 from ksbo_mav.opt.observations import Observations
-from ksbo_mav.opt.outcome import Outcome
+from ksbo_mav.opt.evaluation import Outcome
 
 
 @dataclass

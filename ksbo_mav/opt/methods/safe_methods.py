@@ -23,11 +23,11 @@ import numpy as np
 
 from ksbo_mav.errors import UnsafeStartError
 from ksbo_mav.opt.methods.build import safe_bo_for
-from ksbo_mav.opt.methods.runner import run_safe_bo
+from ksbo_mav.opt.methods.loop import run_safe_bo
 from ksbo_mav.opt.methods.safe_bo import SafeBO
 from ksbo_mav.opt.models.selection import KernelSelection, reselect_by_evidence, select_kernel
 from ksbo_mav.opt.options import Options
-from ksbo_mav.opt.outcome import Outcome
+from ksbo_mav.opt.evaluation import Outcome
 from ksbo_mav.opt.problem import Problem, build_result
 from ksbo_mav.opt.result import OptimizeResult
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.opt.config import SelectionConfig
+from ksbo_mav.opt.method_config import SelectionConfig
 from ksbo_mav.opt.models.safety_model import SafetyModel
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Callable
 
 from ksbo_mav.opt.methods.safe_bo import Proposal, SafeBO
-from ksbo_mav.opt.outcome import Outcome
+from ksbo_mav.opt.evaluation import Outcome
 from ksbo_mav.opt.problem import Problem
 
 
