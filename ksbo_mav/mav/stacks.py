@@ -53,13 +53,15 @@ class Stack:
 
 _COPTER_NAMES = {0: "STABILIZE", 2: "ALT_HOLD", 3: "AUTO", 4: "GUIDED", 5: "LOITER", 6: "RTL", 9: "LAND",
                  16: "POSHOLD", 17: "BRAKE"}
-ARDUPILOT = Stack("ardupilot", MAV_AUTOPILOT_ARDUPILOTMEGA, "c_cast", {"guided": 4, "hold": 5, "land": 9},
+ARDUPILOT = Stack("ardupilot", MAV_AUTOPILOT_ARDUPILOTMEGA, "c_cast", {"guided": 4, "hold": 5, "land": 9, "auto": 3},
                   _COPTER_NAMES)
 #: The built-in simulator numbers its modes like ArduCopter but declares its own identity.
-KSBO_SIM = Stack("ksbo-sim", MAV_AUTOPILOT_GENERIC, "c_cast", {"guided": 4, "hold": 5, "land": 9}, _COPTER_NAMES)
+KSBO_SIM = Stack("ksbo-sim", MAV_AUTOPILOT_GENERIC, "c_cast", {"guided": 4, "hold": 5, "land": 9, "auto": 3},
+                 _COPTER_NAMES)
 _PX4_NAMES = {393216: "OFFBOARD", 50593792: "AUTO.LOITER", 196608: "POSCTL", 100925440: "AUTO.LAND",
-              33816576: "AUTO.TAKEOFF", 131072: "ALTCTL", 65536: "MANUAL"}
-PX4 = Stack("px4", MAV_AUTOPILOT_PX4, "bytewise", {"guided": 393216, "hold": 50593792, "land": 100925440},
+              33816576: "AUTO.TAKEOFF", 131072: "ALTCTL", 65536: "MANUAL", 67371008: "AUTO.MISSION"}
+PX4 = Stack("px4", MAV_AUTOPILOT_PX4, "bytewise",
+            {"guided": 393216, "hold": 50593792, "land": 100925440, "auto": 67371008},
             _PX4_NAMES, px4_mode_params=True, needs_stream=True, holds_setpoints=True,
             param_hash=True)
 

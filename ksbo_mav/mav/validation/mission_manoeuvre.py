@@ -1,0 +1,79 @@
+"""A waypoint mission flown by the autopilot's own navigation (ArduPilot AUTO, PX4 Mission) at its own speeds.
+
+The user's stored mission is downloaded first and put back afterwards (or the mission cleared when there was none),
+whatever the outcome, once the vehicle is back in guided/offboard or left to the pilot. The mission's waypoints go
+up with the mission protocol (:mod:`ksbo_mav.mav.mission_transfer`), the vehicle switches to its auto mode and flies
+them; the flight ends when the vehicle reports the last item reached (MISSION_ITEM_REACHED) or is within
+``arrive_m`` of it, plus ``settle_s`` to see it stop. Cross-track, corner and completion figures are
+:func:`ksbo_task.manoeuvre_metrics.mission_tracking` of the position samples against the straight legs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ksbo_mav.errors import VehicleError
+from ksbo_mav.mav.mission_transfer import MissionTransfer
+from ksbo_mav.mav.validation.manoeuvre_frame import ManoeuvreFrame
+from ksbo_mav.mav.validation.manoeuvre_recorder import cfg_text, end_text, go_text, start_text, wp_text
+from ksbo_mav.mav.validation.manoeuvre_spec import ManoeuvreSpec
+
+
+def fly_auto_mission(frame: ManoeuvreFrame, spec: ManoeuvreSpec, start: np.ndarray, label: str, detail: dict) -> None:
+    """Upload, fly and measure the mission from ``start``; what it flew goes into ``detail``."""
+    v = frame.v
+    frame.hold_target(start, spec.settle_s)
+    transfer = MissionTransfer(v.link)
+    saved = transfer.download()
+    detail.update(start_ned=[float(x) for x in start], user_mission_items=len(saved))
+
+    def put_back() -> None:
+        transfer.upload(saved)  # an empty mission is cleared
+        detail["user_mission_restored"] = True
+
+    detail["user_mission_restored"] = False
+    frame.after.append(put_back)
+    wps = spec.waypoints(start)
+    geo = transfer.global_frame()
+    px4 = v.stack.name == "px4"
+    items = [] if px4 else [geo.home_item()]  # ArduPilot numbering: item 0 is home
+    items += [geo.waypoint(p, yaw=float("nan") if px4 else 0.0) for p in wps[1:]]
+    transfer.upload(items)
+    first = 0 if px4 else 1
+    last = len(items) - 1
+    transfer.set_current(first)
+    frame.marker(start_text(spec.kind, frame.now_ms(), label))
+    frame.started = True
+    frame.marker(cfg_text(spec.settle_fraction, spec.settle_floor_m, spec.settle_band_m, spec.arrive_m))
+    for p in wps:
+        frame.marker(wp_text(p))
+    detail["waypoints_ned"] = [[float(x) for x in p] for p in wps]
+    reached: set[int] = set()
+    current = [first]
+
+    def on_msg(msg) -> None:
+        if msg.get_type() == "MISSION_ITEM_REACHED" and v.link.is_vehicle(msg):
+            reached.add(int(msg.seq))
+        elif msg.get_type() == "MISSION_CURRENT" and v.link.is_vehicle(msg):
+            current[0] = int(msg.seq)
+
+    v.link.handlers.append(on_msg)
+    try:
+        t_go = frame.enter("auto")
+        frame.marker(go_text(t_go))
+
+        def arrived() -> bool:  # (a box ends where it started: near the last point counts on the last leg only)
+            here = v.guided.position()
+            return last in reached or (current[0] == last and here is not None
+                                       and float(np.linalg.norm(here - wps[-1])) <= spec.arrive_m)
+
+        if not frame.watch(spec.timeout_s, "auto", arrived):
+            raise VehicleError(f"the mission did not complete within {spec.timeout_s:g} s of vehicle time")
+        frame.watch(spec.settle_s, "auto")
+    finally:
+        v.link.handlers.remove(on_msg)
+    frame.marker(end_text(frame.now_ms(), "ok"))
+    frame.ended = True
+    detail["items_reached"] = sorted(reached)
+    frame.back_to_guided()
+    frame.hold_target(start, spec.settle_s)
