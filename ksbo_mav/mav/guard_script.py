@@ -11,6 +11,11 @@ trial goes wrong while the tuner cannot act. The protocol, all of it:
 * NAMED_VALUE_FLOAT ``KSG_ALIVE`` = the state and ``KSG_CFG`` = the configuration id, twice a second: the tuner
   knows the guard runs and that it runs *this* campaign's configuration.
 * STATUSTEXT ``KSG: ...`` for every arming, refusal and trip.
+* The figure-8 flown on board (a guard rendered with a :class:`Figure8OnBoard`): ``KSG_F8`` (script parameter)
+  the tuner writes 1 while the trial is armed to start it, 0 to stop it; the guard answers in ``KSG_T0`` the
+  vehicle time of the figure-8's t = 0 (``time_boot_ms`` modulo 2^24, exact in a float; -1 until it started).
+  It then flies the figure-8 to its end, holds the end point, and trips on a tracking error past its limit too.
+  Leaving the armed state (the tuner's 0, a trip) ends it; the guard puts both back.
 
 What the guard must know (the gains and their baseline values, the limits, the modes) is written into the script
 itself before upload, between the ``KSBO_CONFIG_BEGIN``/``END`` markers: nothing but ``KSG_STATE`` changes during
@@ -30,9 +35,10 @@ from ksbo_mav.errors import InputError
 
 SCRIPT_NAME = "ksbo_guard.lua"
 STATE_PARAM, TRIP_PARAM = "KSG_STATE", "KSG_TRIP"
+FIGURE8_PARAM, T0_PARAM = "KSG_F8", "KSG_T0"
 ALIVE_NAME, CONFIG_NAME = "KSG_ALIVE", "KSG_CFG"
 #: Everything the guard adds to the parameter list, with the value it is left at.
-GUARD_PARAMS = {STATE_PARAM: 0.0, TRIP_PARAM: 0.0}
+GUARD_PARAMS = {STATE_PARAM: 0.0, TRIP_PARAM: 0.0, FIGURE8_PARAM: 0.0, T0_PARAM: -1.0}
 #: Box limits past this are written as this: Lua reads the number, and "unbounded" needs no special case.
 _UNBOUNDED = 1.0e6
 
@@ -45,7 +51,29 @@ class GuardState(IntEnum):
 
 
 TRIP_REASONS = {0: "none", 1: "tuner link lost", 2: "box", 3: "tilt", 4: "pilot mode change",
-                5: "disarmed", 6: "no position estimate"}
+                5: "disarmed", 6: "no position estimate", 7: "tracking error"}
+
+
+@dataclass(frozen=True)
+class Figure8OnBoard:
+    """The figure-8 the guard flies itself (:class:`ksbo_task.figure8_ne.Figure8H` with its lead-in, centred on the
+    EKF origin): amplitudes (m), period (s), height above the origin (m), lead-in (s), how long (ms: laps x period,
+    the lead-in inside it, as the ground's stream), a target every ``tick_ms``, and the tracking error (m) past
+    which the guard trips (0: none)."""
+
+    amp_north: float
+    amp_east: float
+    period: float
+    up: float
+    lead_in: float
+    duration_ms: int
+    tick_ms: int = 10
+    track_max: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (self.period > 0 and self.duration_ms > 0 and 1 <= self.tick_ms <= 100):
+            raise InputError(f"onboard figure-8: bad period {self.period!r} s, duration {self.duration_ms!r} ms "
+                             f"or tick {self.tick_ms!r} ms")
 
 
 @dataclass(frozen=True)
@@ -68,6 +96,7 @@ class GuardConfig:
     safe_mode: int = 5
     land_mode: int = 9
     brake_hold_s: float = 2.0
+    figure8: Figure8OnBoard | None = None
 
     def __post_init__(self) -> None:
         if not self.gains:
@@ -104,7 +133,33 @@ def config_block(cfg: GuardConfig) -> str:
         (f"local GUIDED_MODE, BRAKE_MODE, SAFE_MODE, LAND_MODE = {cfg.guided_mode}, {cfg.brake_mode}, "
          f"{cfg.safe_mode}, {cfg.land_mode}"),
         f"local BRAKE_HOLD_MS = {round(cfg.brake_hold_s * 1000)}",
+        *_figure8_lines(cfg.figure8),
     ])
+
+
+def _figure8_lines(f8: Figure8OnBoard | None) -> list[str]:
+    if f8 is None:  # no figure-8 on board: the script's F8_DURATION_MS 0 never starts one
+        return ["local F8_AMP_N, F8_AMP_E, F8_PERIOD, F8_UP, F8_LEAD = 0, 0, 0, 0, 0",
+                "local F8_DURATION_MS, F8_TICK_MS, TRACK_MAX = 0, 10, 0"]
+    return [f"local F8_AMP_N, F8_AMP_E, F8_PERIOD, F8_UP, F8_LEAD = {_num(f8.amp_north)}, {_num(f8.amp_east)}, "
+            f"{_num(f8.period)}, {_num(f8.up)}, {_num(f8.lead_in)}",
+            f"local F8_DURATION_MS, F8_TICK_MS, TRACK_MAX = {int(f8.duration_ms)}, {int(f8.tick_ms)}, "
+            f"{_num(f8.track_max)}"]
+
+
+def figure8_for(mission: Any, track_max: float) -> Figure8OnBoard:
+    """The onboard figure-8 of a ``figure8-ne`` :class:`~ksbo_mav.mav.mission.Mission` (its reference, lead-in and
+    length: the same pattern the ground streams); ``track_max`` the guard's tracking-error limit (m)."""
+    if mission.kind != "figure8-ne":
+        raise InputError(f"the figure-8 flown on board is the 3-D copters' figure8-ne, not {mission.kind}")
+    f = mission.figure8h
+    from ksbo_mav.mav.trajectory import board_text  # (the recorder's module; imported here, where it is needed)
+
+    if len(board_text(f)) > 50:
+        raise InputError(f"the figure-8's numbers are too long for the tlog's marker ({board_text(f)!r}): give the "
+                         "profile's [mission] fewer digits")
+    return Figure8OnBoard(f.amp_north, f.amp_east, f.period, f.altitude, f.lead_in,
+                          int(mission.steps * mission.dt_ms), track_max=float(track_max))
 
 
 def shipped_script() -> str:
@@ -120,8 +175,10 @@ def render_script(cfg: GuardConfig) -> bytes:
 
 
 
-def config_for(limits: Any, link_timeout_s: float, baseline: dict[str, float], config_id: int) -> GuardConfig:
+def config_for(limits: Any, link_timeout_s: float, baseline: dict[str, float], config_id: int,
+               figure8: Figure8OnBoard | None = None) -> GuardConfig:
     """The guard's configuration from the monitor's limits (:class:`ksbo_task.limit_checks.MonitorLimits`, overrides
-    applied), the profile's link timeout and the baseline ``{autopilot parameter name: value}``."""
+    applied), the profile's link timeout and the baseline ``{autopilot parameter name: value}``; with ``figure8``
+    it flies the trials' figure-8 on board."""
     return GuardConfig(dict(baseline), limits.x_max, limits.y_max, limits.z_min, limits.z_max, limits.tilt_max_deg,
-                       float(link_timeout_s), limits.brake_accel, config_id)
+                       float(link_timeout_s), limits.brake_accel, config_id, figure8=figure8)

@@ -11,6 +11,10 @@ forward or ignore it, and other ground stations on the link see what the tuner i
   the reference step j belongs to vehicle time ``t0 + j*dt`` (``time_boot_ms``); steps w..n-1 are scored;
 * ``ksbo f8 end L=<steps flown> <outcome>``.
 
+A figure-8 flown on board (:mod:`ksbo_mav.mav.onboard_trial`) sends no setpoints: after the start marker, ``ksbo f8h
+board a=<north m> b=<east m> p=<period s> up=<m> li=<lead-in s>`` names the pattern whose reference at each sample's
+stamp (:class:`ksbo_task.figure8_ne.Figure8H`, t = 0 at ``t0``) stands in for the logged setpoints.
+
 Pairing (fact sheet / scoring module): the state after control step k is the telemetry sample stamped
 ``t0 + (k+1)*dt`` (the nearest step for a jittery stream), compared with the logged setpoint the client sent in
 answer to that sample, stamped with the sample's time (the reference at that instant). Samples lost
@@ -28,6 +32,7 @@ import numpy as np
 
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.mission import KINDS, MASK_POS_VEL_ACC, task_ref, task_state
+from ksbo_task.figure8_ne import Figure8H
 from ksbo_task.flight import Trajectory
 
 MAX_GAP = 5
@@ -35,6 +40,8 @@ START_RE = re.compile(r"^ksbo (f8h?) start t0=(\d+) n=(\d+) dt=(\d+) w=(\d+)$")
 REF_RE = re.compile(r"^ksbo f8h? ref rms=([0-9.eE+-]+)$")
 END_RE = re.compile(r"^ksbo f8h? end L=(\d+) (\S+)$")
 AFTER_RE = re.compile(r"^ksbo f8h? after (\S+)$")
+_NUM = r"([0-9.eE+-]+)"
+BOARD_RE = re.compile(rf"^ksbo f8h board a={_NUM} b={_NUM} p={_NUM} up={_NUM} li={_NUM}$")
 _TAG_KIND = {tag: kind for kind, tag in KINDS.items()}
 
 
@@ -46,6 +53,13 @@ def ref_text(tag: str, rms_ref: float) -> str:
     """Marker sent after the start marker: the campaign's reference RMS (its baseline flight's lap-2 RMS), so
     the score recomputed from the tlog is the live score."""
     return f"ksbo {tag} ref rms={rms_ref:.6g}"
+
+
+def board_text(f: Figure8H) -> str:
+    """Marker sent after the start marker of a figure-8 flown on board: the pattern, to the float32 precision the
+    script was rendered from (the markers carry 50 characters)."""
+    return f"ksbo f8h board a={f.amp_north:.6g} b={f.amp_east:.6g} p={f.period:.6g} up={f.altitude:.6g} " \
+        f"li={f.lead_in:.6g}"
 
 
 def end_text(tag: str, L: int, outcome: str) -> str:
@@ -76,6 +90,7 @@ class TrialRecorder:
     act: dict[int, np.ndarray] = field(default_factory=dict)
     refs: dict[int, np.ndarray] = field(default_factory=dict)
     rms_ref: float | None = None
+    board: Figure8H | None = None  # the figure-8 flown on board: the reference instead of logged setpoints
     lost: int = 0  # vehicle packets lost on the link during the trial (MAVLink sequence gaps)
     _seq: dict[int, int] = field(default_factory=dict)
 
@@ -117,6 +132,11 @@ class TrialRecorder:
         m = REF_RE.match(text)
         if m and self.t0 is not None and self.L is None:
             self.rms_ref = float(m.group(1))
+            return
+        m = BOARD_RE.match(text)
+        if m and self.t0 is not None and self.L is None:
+            a, b, p, up, li = (float(g) for g in m.groups())
+            self.board = Figure8H(amp_north=a, amp_east=b, period=p, altitude=up, lead_in=li)
             return
         m = END_RE.match(text)
         if m and self.t0 is not None and self.L is None:
@@ -170,7 +190,10 @@ class TrialRecorder:
         rt = np.array(sorted(self.refs), dtype=float)
         pos = np.array([self.pos[int(t)] for t in T]).reshape(-1, 6)
         ref = np.full((len(T), 6), np.nan)
-        if len(rt) >= 2 and len(T):
+        if self.board is not None and len(T):  # flown on board: the pattern's reference at each stamp
+            p, v, _ = self.board.state((T - t0) / 1000.0)
+            ref = np.concatenate([p, v], axis=1)
+        elif len(rt) >= 2 and len(T):
             rv = np.array([self.refs[int(t)] for t in rt])
             inside = (T >= rt[0]) & (T <= rt[-1])
             for c in range(6):
@@ -183,7 +206,7 @@ class TrialRecorder:
                           source=source)
         info = {"kind": self.kind, "t0_ms": t0, "n": self.n, "dt_ms": dt, "window": [self.w, self.n], "L": L,
                 "outcome": self.outcome, "samples": int(len(T)), "setpoints": int(len(rt)),
-                "lost_packets": int(self.lost), "rms_ref": self.rms_ref}
+                "lost_packets": int(self.lost), "rms_ref": self.rms_ref, "on_board": self.board is not None}
         return traj, info
 
 

@@ -27,7 +27,8 @@ from ksbo_mav.mav.monitor import Monitor
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.errors import VerifyError
 from ksbo_mav.mav.tlog import TlogWriter
-from ksbo_mav.mav.trajectory import TrialRecorder, after_text, end_text, ref_text, start_text
+from ksbo_mav.mav import onboard_trial
+from ksbo_mav.mav.trajectory import TrialRecorder, after_text, board_text, end_text, ref_text, start_text
 from ksbo_mav.mav.vehicle import Vehicle
 
 
@@ -94,6 +95,8 @@ class TrialFlight:
         self.mission = vehicle.mission
         self.baseline_params = dict(baseline_params)
         self.settle_s, self.link_wait_s, self.log = settle_s, link_wait_s, log
+        #: Fly the figure-8 on board when the guard carries it (False: stream it from the ground anyway).
+        self.on_board = True
 
     def fly(self, x: np.ndarray, approach: Approach, tlog: Path, rms_ref: float | None) -> FlownTrial:
         """Fly the gains ``x`` (d,), already checked against the trust region, with a two-way tlog at ``tlog``;
@@ -175,18 +178,27 @@ class TrialFlight:
             g.follow(approach.setpoint, approach.steps, m.dt_ms,
                      lambda s: self._check(s, approach.setpoint(
                          min(max(s.time_boot_ms - t_a, 0) // m.dt_ms, approach.steps))[0]), self.log, resend_s=0.1)
-        t0 = int(v.telemetry.clock.last_ms)
         n, dt = m.steps, m.dt_ms
+        board = self.on_board and onboard_trial.on_board(v)
+        t0 = onboard_trial.start(v) if board else int(v.telemetry.clock.last_ms)
         v.statustext(start_text(m.tag, t0, n, dt, m.window[0]))
+        if board:
+            v.statustext(board_text(m.figure8h))
         if rms_ref is not None:  # after the start marker: a start forgets everything before it
             v.statustext(ref_text(m.tag, rms_ref))
+        ref_at = lambda s: m.setpoint_at(min(max(s.time_boot_ms - t0, 0), n * dt) / 1000.0)[0]  # noqa: E731
+        if board:  # the guard flies it and holds the end point: watch the figure-8 and the settle after it
+            onboard_trial.watch(v, t0 + n * dt, lambda s: self._check(s, ref_at(s)), self.log)
+            end = m.setpoint_at(n * dt / 1000.0)[0]
+            onboard_trial.watch(v, t0 + n * dt + int(self.settle_s * 1000), lambda s: self._check(s, None), self.log)
+            g.hold_at(end)
+            return n
         # Step j's setpoint goes out when the vehicle clock reaches t0 + j*dt, stamped with the time its content is
         # for; every sample is checked against the reference at its own stamp, and scored against the logged
         # setpoints at its stamp. An autopilot that holds each position setpoint for a whole step gets the
         # reference of the step's middle (a held target trails the moving one by half a step: 50 ms at 10 Hz).
         lead = 0.5 if v.stack.holds_setpoints else 0.0
-        g.follow(lambda j: m.setpoint_at((j + lead) * dt / 1000.0), n, dt,
-                 lambda s: self._check(s, m.setpoint_at(min(max(s.time_boot_ms - t0, 0), n * dt) / 1000.0)[0]),
+        g.follow(lambda j: m.setpoint_at((j + lead) * dt / 1000.0), n, dt, lambda s: self._check(s, ref_at(s)),
                  self.log, resend_s=0.1, lag_ms=lag, lead_ms=lead * dt)
         end = m.setpoint_at(n * dt / 1000.0)[0]
         # The trial's gains fly on until the baseline is restored: hold the end point with them for as long as the

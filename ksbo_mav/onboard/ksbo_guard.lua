@@ -12,12 +12,21 @@
 --
 -- Protocol (docs: ksbo_mav/mav/onboard_guard.py):
 --   KSG_STATE  0 idle, 1 trial armed (tuner writes 1 / 0), 2 tripped, 3 arming refused (guard writes)
---   KSG_TRIP   why: 0 none, 1 link lost, 2 box, 3 tilt, 4 pilot mode change, 5 disarmed, 6 no position
+--   KSG_TRIP   why: 0 none, 1 link lost, 2 box, 3 tilt, 4 pilot mode change, 5 disarmed, 6 no position,
+--              7 tracking error (figure-8 on board)
+--   KSG_F8     the tuner writes 1 (trial armed) to start the figure-8 on board, 0 to stop it
+--   KSG_T0     the vehicle time (ms, modulo 2^24) of the figure-8's t = 0, once it started; -1 before
 --   NAMED_VALUE_FLOAT KSG_ALIVE = state, KSG_CFG = CONFIG_ID, twice a second.
 --
 -- The tuner renders the block between the CONFIG markers (the gain names with their baseline values, the
 -- limits, the modes) before it uploads the script. As shipped the list of gains is empty and the guard refuses
 -- to arm: an unrendered copy can do nothing.
+--
+-- The figure-8 on board (F8_DURATION_MS > 0): while a trial is armed and KSG_F8 is 1, the script flies the
+-- campaign's figure-8 itself (ksbo_task.figure8_ne with its lead-in, the same formulas), setting a position +
+-- velocity + acceleration target every F8_TICK_MS; the position controller dead-reckons it at the loop rate in
+-- between. At the end it holds the end point with a position-only target. Every check above stays on, plus the
+-- tracking error against the reference it flies (TRACK_MAX). The tuner only starts it and scores the telemetry.
 
 -- KSBO_CONFIG_BEGIN
 local CONFIG_ID = 0
@@ -28,22 +37,32 @@ local TILT_MAX_DEG = 0
 local BRAKE_ACCEL = 0
 local GUIDED_MODE, BRAKE_MODE, SAFE_MODE, LAND_MODE = 4, 17, 5, 9
 local BRAKE_HOLD_MS = 2000
+local F8_AMP_N, F8_AMP_E, F8_PERIOD, F8_UP, F8_LEAD = 0, 0, 0, 0, 0
+local F8_DURATION_MS, F8_TICK_MS, TRACK_MAX = 0, 10, 0
 -- KSBO_CONFIG_END
 
 local PARAM_TABLE_KEY = 87
 local IDLE, ARMED, TRIPPED, REFUSED = 0, 1, 2, 3
-local LINK, BOX, TILT, PILOT, DISARMED, NO_POSITION = 1, 2, 3, 4, 5, 6
+local LINK, BOX, TILT, PILOT, DISARMED, NO_POSITION, TRACK = 1, 2, 3, 4, 5, 6, 7
 local TICK_MS, ALIVE_MS = 100, 500
 
-assert(param:add_table(PARAM_TABLE_KEY, "KSG_", 2), "ksbo guard: could not add the KSG_ parameter table")
+assert(param:add_table(PARAM_TABLE_KEY, "KSG_", 4), "ksbo guard: could not add the KSG_ parameter table")
 assert(param:add_param(PARAM_TABLE_KEY, 1, "STATE", 0), "ksbo guard: could not add KSG_STATE")
 assert(param:add_param(PARAM_TABLE_KEY, 2, "TRIP", 0), "ksbo guard: could not add KSG_TRIP")
+assert(param:add_param(PARAM_TABLE_KEY, 3, "F8", 0), "ksbo guard: could not add KSG_F8")
+assert(param:add_param(PARAM_TABLE_KEY, 4, "T0", -1), "ksbo guard: could not add KSG_T0")
 -- A reboot or a script restart never starts armed (the tuner's PARAM_SET saved KSG_STATE).
 param:set("KSG_STATE", IDLE)
+param:set("KSG_F8", 0)
+param:set("KSG_T0", -1)
 
 local state = IDLE
 local brake_since = nil
 local last_alive = 0
+local f8_start = nil -- millis() of the figure-8's t = 0 while it flies (or holds its end point)
+local f8_done = false
+local f8_ticks = 0
+local f8_pos, f8_vel, f8_acc = Vector3f(), Vector3f(), Vector3f()
 
 local function now_ms()
   return millis():tofloat()
@@ -56,6 +75,11 @@ local function send_alive()
 end
 
 local function set_state(s, reason)
+  if s ~= ARMED then
+    f8_start = nil -- a trip or the tuner's end of the trial ends the figure-8 (a trip also took control)
+    param:set("KSG_F8", 0)
+    param:set("KSG_T0", -1)
+  end
   state = s
   param:set("KSG_STATE", s)
   if reason then
@@ -176,13 +200,104 @@ local function watch()
   end
 end
 
+-- ksbo_task.lead_in: phase, its rate and the rate's derivative at t (s); the pattern starts from rest.
+local function lead_in(t)
+  if F8_LEAD <= 0 then
+    return t, 1, 0
+  end
+  t = math.max(t, 0)
+  if t >= F8_LEAD then
+    return t - 0.5 * F8_LEAD, 1, 0
+  end
+  local u = t / F8_LEAD
+  return F8_LEAD * (u * u * u - 0.5 * u * u * u * u), u * u * (3 - 2 * u), 6 * u * (1 - u) / F8_LEAD
+end
+
+-- ksbo_task.figure8_ne.Figure8H: the order-th time derivative (0, 1, 2) of (north, east) at phase ph.
+local function pattern(ph, order)
+  local w = 2 * math.pi / F8_PERIOD
+  local k = order * math.pi / 2
+  return F8_AMP_N * w ^ order * math.sin(w * ph + k), F8_AMP_E * (2 * w) ^ order * math.sin(2 * w * ph + k)
+end
+
+-- The reference t seconds after the figure-8's start into f8_pos, f8_vel, f8_acc (NED, m from the EKF origin).
+local function reference(t)
+  local ph, r, rd = lead_in(t)
+  local n0, e0 = pattern(ph, 0)
+  local n1, e1 = pattern(ph, 1)
+  local n2, e2 = pattern(ph, 2)
+  f8_pos:x(n0); f8_pos:y(e0); f8_pos:z(-F8_UP)
+  f8_vel:x(n1 * r); f8_vel:y(e1 * r); f8_vel:z(0)
+  f8_acc:x(n2 * r * r + n1 * rd); f8_acc:y(e2 * r * r + e1 * rd); f8_acc:z(0)
+end
+
+-- Hold a position with a position-only target (never times out), yaw rate 0 as the tuner's holds.
+local function hold(pos)
+  vehicle:set_target_pos_NED(pos, false, 0, true, 0, false, false)
+end
+
+-- One tick of the figure-8 of an armed trial: start it when the tuner asks, fly it, hold its end point.
+local function fly_figure8()
+  if F8_DURATION_MS <= 0 then
+    return
+  end
+  local wanted = param:get("KSG_F8")
+  if not f8_start then
+    if wanted == 1 then
+      f8_start, f8_done, f8_ticks = millis(), false, 0
+      param:set("KSG_T0", (f8_start & 0xFFFFFF):tofloat())
+      gcs:send_text(6, "KSG: figure-8 started")
+    end
+    return
+  end
+  if wanted ~= 1 then -- the tuner stopped it (its monitor tripped): stop where the vehicle is
+    f8_start = nil
+    param:set("KSG_T0", -1)
+    local p = ahrs:get_relative_position_NED_origin()
+    if p then
+      hold(p)
+    end
+    gcs:send_text(6, "KSG: figure-8 stopped by the tuner")
+    return
+  end
+  if f8_done then
+    return
+  end
+  local t_ms = (millis() - f8_start):tofloat()
+  reference(math.min(t_ms, F8_DURATION_MS) * 0.001)
+  if t_ms >= F8_DURATION_MS then
+    hold(f8_pos)
+    f8_done = true
+    gcs:send_text(6, string.format("KSG: figure-8 done, %d targets", f8_ticks))
+    return
+  end
+  vehicle:set_target_posvelaccel_NED(f8_pos, f8_vel, f8_acc, false, 0, true, 0, false)
+  f8_ticks = f8_ticks + 1
+  local p = ahrs:get_relative_position_NED_origin()
+  if TRACK_MAX > 0 and p then
+    local err = (p - f8_pos):length()
+    if err > TRACK_MAX then
+      trip(TRACK, string.format("tracking error %.1f>%.1f m", err, TRACK_MAX), true)
+    end
+  end
+end
+
 local function update()
   local wanted = param:get("KSG_STATE")
   if state == ARMED then
     if wanted == IDLE then
+      if f8_start and not f8_done then -- ended mid figure-8: hold where the vehicle is
+        local p = ahrs:get_relative_position_NED_origin()
+        if p then
+          hold(p)
+        end
+      end
       set_state(IDLE)
     else
       watch()
+      if state == ARMED then
+        fly_figure8()
+      end
     end
   elseif wanted == ARMED and state ~= ARMED then
     local why = refusal()
@@ -213,7 +328,8 @@ local function protected()
   if not ok then
     gcs:send_text(0, "KSG: error: " .. tostring(err))
   end
-  return protected, TICK_MS
+  -- Faster while the figure-8 flies: each tick sets the next target.
+  return protected, (f8_start and not f8_done) and F8_TICK_MS or TICK_MS
 end
 
 gcs:send_text(6, string.format("KSG: guard running, config %d, %d gains", CONFIG_ID, #GAINS))

@@ -33,10 +33,14 @@ PARAMS = [
     ParamSpec("SCR_ENABLE", 1, 0, 1, "INT32", "Lua scripting (the simulated guard runs when 1)"),
     ParamSpec("MAV_GCS_SYSID", 255, 1, 255, "INT32", "system id whose heartbeat is the GCS link"),
     ParamSpec("KSG_STATE", 0.0, 0.0, 3.0, description="onboard guard: 0 idle, 1 trial armed, 2 tripped, 3 refused"),
-    ParamSpec("KSG_TRIP", 0.0, 0.0, 6.0, description="onboard guard: why it tripped"),
+    ParamSpec("KSG_TRIP", 0.0, 0.0, 7.0, description="onboard guard: why it tripped"),
+    # The figure-8 flown on board: listed as the Lua lists them; this simulated guard does not fly it (the tuner
+    # streams the figure-8 to a guard configured without one).
+    ParamSpec("KSG_F8", 0.0, 0.0, 1.0, description="onboard guard: 1 flies the figure-8 on board"),
+    ParamSpec("KSG_T0", -1.0, -1.0, 16777215.0, description="onboard guard: vehicle ms (mod 2^24) of its t = 0"),
 ]
 #: Never persisted: a restarted vehicle's guard starts idle, as the Lua does.
-VOLATILE = ("KSG_STATE", "KSG_TRIP")
+VOLATILE = ("KSG_STATE", "KSG_TRIP", "KSG_F8", "KSG_T0")
 
 
 def parse_config(text: str) -> dict[str, Any] | None:
