@@ -68,7 +68,9 @@ class DFWriter:
 
 
 def write_bin(path: Path, laps: float = 2.0, log_bitmask: int = 180222, psc: bool = True, guided: bool = True,
-              markers: bool = False, err_scale: float = 1.0) -> Path:
+              markers: bool | str = False, err_scale: float = 1.0) -> Path:
+    """``markers``: log the tuner's start marker, True as ArduPilot logs another system's STATUSTEXT
+    (``SRC=245/191:``) or the prefix given (``GCS:``, the sender being ``MAV_GCS_SYSID``)."""
     w = DFWriter()
     w.define(32, "PARM", "QNff", "TimeUS,Name,Value,Default")
     w.define(120, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn")
@@ -86,7 +88,8 @@ def write_bin(path: Path, laps: float = 2.0, log_bitmask: int = 180222, psc: boo
     w.msg("MODE", us(T_GUIDED), 4 if guided else 5, 4 if guided else 5, 2)
     if markers:
         n = MISSION.steps
-        w.msg("MSG", us(T0 - 0.01), f"SRC=245/191:ksbo f8h start t0={int(T0 * 1000)} n={n} dt=20 w={n // 2}")
+        prefix = "SRC=245/191:" if markers is True else markers
+        w.msg("MSG", us(T0 - 0.01), f"{prefix}ksbo f8h start t0={int(T0 * 1000)} n={n} dt=20 w={n // 2}")
     events = [(T_LAND, "land"), (T_DISARM, "disarm")]
     t = 1.0
     k = 0

@@ -103,10 +103,10 @@ def _new_args(tmp_path, *cli: str):
     ("accept", "stored", lambda tmp: config_from_args(_resume_args(tmp, {"accept": True})).accept, True),
     ("accept", "default", lambda tmp: config_from_args(_new_args(tmp)).accept, False),
     ("onboard_guard", "command_line",
-     lambda tmp: config_from_args(_resume_args(tmp, {}, "--onboard-guard")).onboard_guard, True),
+     lambda tmp: config_from_args(_resume_args(tmp, {}, "--no-onboard-guard")).onboard_guard, False),
     ("onboard_guard", "stored",
-     lambda tmp: config_from_args(_resume_args(tmp, {"onboard_guard": True})).onboard_guard, True),
-    ("onboard_guard", "default", lambda tmp: config_from_args(_new_args(tmp)).onboard_guard, False),
+     lambda tmp: config_from_args(_resume_args(tmp, {"onboard_guard": False})).onboard_guard, False),
+    ("onboard_guard", "default", lambda tmp: config_from_args(_new_args(tmp)).onboard_guard, True),
     # --end has a command-line default, so the command line always gives it
     ("end", "command_line", lambda tmp: config_from_args(_resume_args(tmp, {"end": "hold"})).end, "land"),
     ("end", "command_line", lambda tmp: config_from_args(_resume_args(tmp, {}, "--end", "hold")).end, "hold"),

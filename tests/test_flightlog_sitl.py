@@ -13,8 +13,9 @@ marker in the onboard log the figure-8's start is recovered from the logged setp
 link latency (~10-20 ms of sim time at 10x, ~0.05 m of along-track shift at 3 m/s).
 
 For the campaign trials the tolerance is tighter — 0.02 m on the lap-2 RMS and 0.02 on P — because the start time
-is exact: ArduPilot logs the tuner's STATUSTEXT trial markers in the .BIN (MSG "SRC=245/191:ksbo f8h start
-t0=..."), the campaign reference RMS included; for PX4 (which does not log a ground station's STATUSTEXT) the start
+is exact: ArduPilot logs the tuner's STATUSTEXT trial markers in the .BIN (MSG "GCS:ksbo f8h start t0=..." while
+the onboard guard makes the tuner MAV_GCS_SYSID, "SRC=245/191:ksbo ..." without it), the campaign reference RMS
+included; for PX4 (which does not log a ground station's STATUSTEXT) the start
 is recovered from trajectory_setpoint and the reference RMS is passed as `--rms-ref`, as a user would. PX4 logs a
 setpoint when it arrives, so on a busy machine the recovered start can lag the tuner's by the link latency (up to
 25 ms of sim time is accepted); a trial that tracks with a large along-track lag (the SITL baseline: ~1.4 m) then

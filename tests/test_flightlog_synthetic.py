@@ -59,8 +59,10 @@ def test_rms_ref_makes_p_comparable(tmp_path, capsys):
     assert sc["P"] == pytest.approx(1 - 0.5 / 2, abs=0.02)  # half the baseline's error -> 0.75
 
 
-def test_marker_in_bin_gives_exact_start(tmp_path, capsys):
-    path = write_bin(tmp_path / "m.bin", markers=True)
+@pytest.mark.parametrize("prefix", ["SRC=245/191:", "GCS:"])
+def test_marker_in_bin_gives_exact_start(tmp_path, capsys, prefix):
+    # ArduPilot logs a STATUSTEXT from MAV_GCS_SYSID (the tuner, while its onboard guard runs) as "GCS:text"
+    path = write_bin(tmp_path / "m.bin", markers=prefix)
     _, out, _ = score_json(capsys, path)
     f8 = out["segments"][0]["figure8"]
     assert f8["t0_s"] == T0 and f8["marker"].startswith("ksbo f8h start")

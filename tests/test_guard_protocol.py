@@ -120,9 +120,11 @@ def _tune(endpoint, d, *extra: str) -> subprocess.CompletedProcess:
 
 def test_a_campaign_without_scripting_flies_nothing_unless_told_to_fly_without_the_guard(tmp_path):
     with sim_and_endpoint("--set", "SCR_ENABLE=0") as (_, endpoint):
-        r = _tune(endpoint, tmp_path / "refused", "--onboard-guard")
+        r = _tune(endpoint, tmp_path / "refused")  # the guard is the default
         assert r.returncode != 0
-        assert "set SCR_ENABLE to 1 and reboot" in r.stderr and "--no-onboard-guard" in r.stderr
+        last = r.stderr.strip().splitlines()[-1]  # one line says what to set
+        assert last.startswith("error: ") and "set SCR_ENABLE to 1 and reboot" in last, r.stderr[-2000:]
+        assert "--no-onboard-guard" in last
         assert "Traceback" not in r.stderr
         assert not list((tmp_path / "refused").glob("trials/trial_*.json"))
         r = _tune(endpoint, tmp_path / "without", "--no-onboard-guard")
@@ -133,7 +135,7 @@ def test_a_campaign_without_scripting_flies_nothing_unless_told_to_fly_without_t
 
 def test_a_campaign_installs_the_guard_and_leaves_no_trace_of_it(tmp_path):
     with sim_and_endpoint() as (sim, endpoint):
-        r = _tune(endpoint, tmp_path / "c", "--onboard-guard")
+        r = _tune(endpoint, tmp_path / "c")  # the guard is the default
         assert r.returncode == 0, r.stderr[-2000:]
         out = r.stdout + r.stderr
         assert "onboard guard: running" in out and "onboard guard: removed" in out

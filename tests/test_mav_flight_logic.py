@@ -65,6 +65,23 @@ def test_statustext_chunks_are_joined_on_one_line():
     assert "\n" not in cmd.recent_text()
 
 
+def test_a_refusal_reason_is_found_after_many_earlier_texts():
+    """The mark a command takes before it is sent still counts once the bounded store of texts is full (an onboard
+    script's chatter filled it before the arming refusal's reason came)."""
+    link = SimpleNamespace(handlers=[], is_vehicle=lambda m: True)
+    cmd = Commander(link)
+
+    def text(s: str):
+        return SimpleNamespace(get_type=lambda: "STATUSTEXT", severity=6, text=s, id=0, chunk_seq=0)
+
+    for i in range(cmd.texts.maxlen + 5):
+        cmd._on_msg(text(f"KSG: chatter {i}"))
+    mark = cmd.received
+    assert cmd.recent_text(mark) == ""
+    cmd._on_msg(text("Arm: Battery 1 below minimum arming voltage"))
+    assert cmd.recent_text(mark) == "Arm: Battery 1 below minimum arming voltage"
+
+
 def _mission() -> Mission:
     return Mission.from_profile(load_profile("ardupilot-copter"))
 

@@ -1,10 +1,9 @@
 """The campaign's onboard guard: installed before the first trial, removed when the campaign ends however it ends,
 and by ``ksbo-mav restore``.
 
-The guard is opt-in for now (``--onboard-guard``): installed, it still hides the vehicle's arming refusal text and
-keeps the trial's start marker out of ArduPilot's DataFlash log. Asked for on ArduPilot (and the built-in simulator,
-which simulates it) without scripting, the campaign stops before flying, naming what to set; without it the console
-says what that leaves, and the settings, hence the report, record it. PX4 runs no scripts: there is no guard to
+The guard is on by default. On ArduPilot (and the built-in simulator, which simulates it) without scripting, the
+campaign stops before flying, naming what to set; flown without it (``--no-onboard-guard``) the console says what
+that leaves, and the settings, hence the report, record it. PX4 runs no scripts: there is no guard to
 install, and the console says so; its own link-loss failsafe (checked by :mod:`ksbo_mav.campaign.link_loss_policy`) is
 the backstop.
 """
@@ -19,7 +18,7 @@ from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.mav.onboard_guard import GCS_SYSID_PARAMS, GuardUnavailable, OnboardGuard
 from ksbo_mav.mav.vehicle import Vehicle
 
-WITHOUT = ("flying WITHOUT the onboard guard (--onboard-guard installs it): if the link is lost during a trial, "
+WITHOUT = ("flying WITHOUT the onboard guard (--no-onboard-guard): if the link is lost during a trial, "
            "the trial gains keep flying until it comes back")
 
 
@@ -35,11 +34,27 @@ def install_guard(v: Vehicle, wanted: bool, base: dict[str, float], safety: dict
         return
     guard = OnboardGuard(v.link, v.params, v.cmd, log)
     try:
-        guard.install(config_for(limits_from_profile(v.profile, safety), v.heartbeat_timeout, base,
+        guard.install(config_for(limits_from_profile(v.profile, safety), guard_link_timeout(v, log), base,
                                  new_config_id()))
     except GuardUnavailable as exc:
         raise GuardUnavailable(f"{exc} [to fly without it: --no-onboard-guard]") from None
     v.guard = guard
+
+
+def guard_link_timeout(v: Vehicle, log: Callable[[str], None]) -> float:
+    """The guard's link timeout in seconds of *vehicle* time. The ground's monitor counts the profile's
+    ``heartbeat_timeout_s`` on the wall clock, the guard on the vehicle's: where the vehicle's clock runs faster
+    (a SITL at a speed-up; the rate is measured, never taken below 1) the guard's timeout is scaled by it, so both
+    give up after the same wall time and a tuner a busy computer holds up for a few tenths of a second does not
+    look lost to a guard that sees ten times as much vehicle time go by. On a real vehicle the rate is 1."""
+    clock = v.telemetry.clock
+    rate = max(1.0, clock.rate) if clock.valid else 1.0
+    if rate < 1.2:  # real time, give or take the estimate's noise
+        return v.heartbeat_timeout
+    scaled = round(v.heartbeat_timeout * rate, 1)
+    log(f"onboard guard: link timeout {scaled:g} s of vehicle time ({v.heartbeat_timeout:g} s of wall time; the "
+        f"vehicle's clock runs {rate:.1f}x)")
+    return scaled
 
 
 def remove_guard(v: Vehicle, log: Callable[[str], None]) -> None:

@@ -120,8 +120,9 @@ SETTINGS: tuple[Setting, ...] = (
             "mission rate in Hz (unset: the profile's, lowered by the link check if the link cannot carry it)"),
     Setting("accept", BOOL, False, "--accept", "leave the best gains on the vehicle unless a confirmation failed"),
     Setting("end", Choice(END_MODES), "land", "--end", "after the campaign: land and disarm, or hold position"),
-    Setting("onboard_guard", BOOL, False, "--onboard-guard",
-            "install the onboard guard (ArduPilot Lua) that restores the baseline on a lost link (opt-in for now)"),
+    Setting("onboard_guard", BOOL, True, "--onboard-guard",
+            "install the onboard guard (ArduPilot Lua) that restores the baseline on a lost link; "
+            "--no-onboard-guard flies without it"),
     Setting("settle_s", Interval(0.0), 1.0, None, "seconds of hover at the start point before a trial's figure-8"),
     Setting("sysid", Unset(_whole(1, 255)), None, "--sysid", "our MAVLink system id (unset: 245)"),
     Setting("compid", Unset(_whole(1, 255)), None, "--compid", "our MAVLink component id (unset: 191)"),

@@ -55,8 +55,8 @@ def add_parser(subparsers) -> None:
                                                                           "writes them anyway)"))
     g.add_argument("--end", metavar="{land,hold}", default="land", help=_help("end"))
     g.add_argument("--onboard-guard", dest="onboard_guard", action=argparse.BooleanOptionalAction, default=None,
-                   help="install the onboard guard that restores the baseline on a lost link (ArduPilot Lua; off "
-                        "unless given, for now: docs/flight-checklist.md)")
+                   help="the onboard guard (ArduPilot Lua, needs SCR_ENABLE 1): baseline back on a lost link; "
+                        "on unless --no-onboard-guard (said in the report)")
     g.add_argument("--json", action="store_true", help="print the final summary as JSON")
     g = p.add_argument_group(GROUPS[4])
     g.add_argument("--method", help=_help("method", "; or " + ", ".join(m for m in METHODS

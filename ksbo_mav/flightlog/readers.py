@@ -3,7 +3,8 @@
 * ``.BIN`` (ArduCopter): actual and target position from the position controller's own log, PSCN/PSCE/PSCD
   (``PN``/``TPN``..., metres, NED, 10 Hz under ``LOG_BITMASK`` bit 5 NTUN), the guided setpoints it received as
   GUIP (north, east, *up*), modes from MODE, trial markers from MSG (ArduPilot logs every STATUSTEXT a ground
-  station sends as ``SRC=sys/comp:text``).
+  station sends as ``SRC=sys/comp:text``, or ``GCS:text`` when the sender's system id is ``MAV_GCS_SYSID``, as
+  the tuner's is while its onboard guard runs).
 * ``.ulg`` (PX4): ``vehicle_local_position`` (actual), ``vehicle_local_position_setpoint`` (the position
   controller's target), ``trajectory_setpoint`` (what offboard/auto asked for), ``vehicle_status.nav_state`` for
   modes (armed only); read by .ulog_records, filtered to those topics.
@@ -116,7 +117,7 @@ def read_bin(p: Path, partial: bool = False) -> FlightLog:
     if "MSG" in c.data:
         for row in c.data["MSG"]:
             text = row["Message"].split(b"\0", 1)[0].decode("ascii", "replace")
-            if ":" in text and text.startswith("SRC="):
+            if text.startswith("GCS:") or (":" in text and text.startswith("SRC=")):
                 text = text.split(":", 1)[1]
             if text.startswith("ksbo "):
                 markers.append(Marker(float(row["TimeUS"]) * 1e-6, text))

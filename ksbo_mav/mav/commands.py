@@ -40,6 +40,8 @@ class Commander:
         self.link = link
         self.stack: Stack | None = None
         self.texts: deque[tuple[int, str]] = deque(maxlen=20)
+        #: STATUSTEXTs received so far: a mark that keeps counting once :attr:`texts` is full (its length does not)
+        self.received = 0
         self._chunks: dict[int, list[str]] = {}
         self.ack_wait_s = 0.0  # the least wait for an acknowledgement: sized to the link (size_for_link)
         self.extra_attempts = 0
@@ -61,16 +63,22 @@ class Commander:
             text = one_line(str(msg.text))
             tid = int(getattr(msg, "id", 0) or 0)
             if tid == 0:
-                self.texts.append((int(msg.severity), text))
+                self._keep(int(msg.severity), text)
                 return
             # MAVLink 2 splits long texts into 50-byte chunks with one id; the last chunk is shorter than 50.
             parts = self._chunks.setdefault(tid, [])
             parts.append(str(msg.text).replace("\0", ""))
             if len(str(msg.text).encode()) < 50 or len(parts) >= 8:
-                self.texts.append((int(msg.severity), one_line("".join(self._chunks.pop(tid)))))
+                self._keep(int(msg.severity), one_line("".join(self._chunks.pop(tid))))
+
+    def _keep(self, severity: int, text: str) -> None:
+        self.texts.append((severity, text))
+        self.received += 1
 
     def recent_text(self, since: int = 0) -> str:
-        items = list(self.texts)[since:]
+        """The last three STATUSTEXTs received after the ``since``-th one (a :attr:`received` mark)."""
+        first = self.received - len(self.texts)  # how many have left the bounded store
+        items = list(self.texts)[max(0, since - first):]
         return "; ".join(t for _, t in items[-3:])
 
     def send(self, cmd: int, *params: float, confirmation: int = 0) -> None:
@@ -92,7 +100,7 @@ class Commander:
 
     def attempt(self, cmd: int, *params: float, timeout: float = 1.0, retries: int = 3) -> tuple[int, str]:
         """Send a command once (with ACK retries); returns (MAV_RESULT, the vehicle's STATUSTEXT reason or "")."""
-        mark = len(self.texts)
+        mark = self.received
         result = self.command(cmd, *params, timeout=timeout, retries=retries)
         reason = ""
         if result != 0:
