@@ -62,7 +62,10 @@ def watch(v: Vehicle, t_end_ms: int, on_sample: Callable[[Any], None], log: Call
     tel.on_sample.append(fresh.append)
     try:
         while tel.clock.last_ms < t_end_ms:
-            v.link.pump(0.01)
+            if g.lockstep:  # a lockstep simulator's time advances only when stepped (half a second at a time)
+                g.wait(0.5)
+            else:
+                v.link.pump(0.01)
             while fresh:
                 on_sample(fresh.pop(0))
             g.check_link()

@@ -11,6 +11,11 @@ system id in ``MAV_GCS_SYSID``, on the simulated clock), the box, the tilt, the 
 breach put the baseline gains back, hold (the simulator's BRAKE and LOITER are one hold mode) and say so;
 ``KSG_ALIVE`` and ``KSG_CFG`` go out twice a second. The protocol words are documented in
 ``ksbo_mav.mav.guard_script``.
+
+A script rendered with a figure-8 (``F8_DURATION_MS`` > 0) flies it on board as the Lua does: on ``KSG_F8`` = 1
+during an armed trial it answers ``KSG_T0`` and sets the reference (:class:`ksbo_task.figure8_ne.Figure8H` with
+its lead-in) as the guided target every control period, the simulator's loop rate, then holds the end point; a
+tracking error past ``TRACK_MAX`` trips it.
 """
 
 from __future__ import annotations
@@ -19,13 +24,16 @@ import math
 import re
 from typing import Any
 
+import numpy as np
+
 from ksbo_sim.mavlink.personality import Mode
 from ksbo_sim.vehicle import ParamSpec
+from ksbo_task.figure8_ne import Figure8H
 
 SCRIPT_PATH = "scripts/ksbo_guard.lua"
 CMD_SCRIPTING, SCRIPTING_RESTART = 42701, 3
 IDLE, ARMED, TRIPPED, REFUSED = 0, 1, 2, 3
-LINK, BOX, TILT, PILOT, DISARMED = 1, 2, 3, 4, 5
+LINK, BOX, TILT, PILOT, DISARMED, TRACK = 1, 2, 3, 4, 5, 7
 TICK_US, ALIVE_US = 100_000, 500_000
 SEV_CRITICAL, SEV_WARNING, SEV_INFO = 2, 4, 6
 
@@ -34,8 +42,6 @@ PARAMS = [
     ParamSpec("MAV_GCS_SYSID", 255, 1, 255, "INT32", "system id whose heartbeat is the GCS link"),
     ParamSpec("KSG_STATE", 0.0, 0.0, 3.0, description="onboard guard: 0 idle, 1 trial armed, 2 tripped, 3 refused"),
     ParamSpec("KSG_TRIP", 0.0, 0.0, 7.0, description="onboard guard: why it tripped"),
-    # The figure-8 flown on board: listed as the Lua lists them; this simulated guard does not fly it (the tuner
-    # streams the figure-8 to a guard configured without one).
     ParamSpec("KSG_F8", 0.0, 0.0, 1.0, description="onboard guard: 1 flies the figure-8 on board"),
     ParamSpec("KSG_T0", -1.0, -1.0, 16777215.0, description="onboard guard: vehicle ms (mod 2^24) of its t = 0"),
 ]
@@ -72,6 +78,9 @@ class SimGuard:
         self.gcs_seen_us: int | None = None
         self._next_tick = 0
         self._next_alive = 0
+        self.f8: Figure8H | None = None
+        self.f8_start_us: int | None = None
+        self.f8_done = False
 
     # --- the scripting service ---------------------------------------------------------------------------
     def restart(self) -> None:
@@ -79,8 +88,12 @@ class SimGuard:
         self.s.telemetry.statustext(SEV_CRITICAL, "Scripting: restarted")
         data = self.s.ftp.files.get(SCRIPT_PATH)
         self.cfg = parse_config(data.decode("utf-8", "replace")) if data and self.s.params["SCR_ENABLE"] else None
-        self.state = IDLE
-        self.s.params.force("KSG_STATE", IDLE)
+        self._set_state_param(IDLE)
+        self.f8 = None
+        if self.cfg is not None and self.cfg.get("F8_DURATION_MS", 0) > 0:
+            c = self.cfg
+            self.f8 = Figure8H(amp_north=c["F8_AMP_N"], amp_east=c["F8_AMP_E"], period=c["F8_PERIOD"],
+                               altitude=c["F8_UP"], lead_in=c["F8_LEAD"])
         if self.cfg is not None:
             self.s.telemetry.statustext(SEV_INFO, f"KSG: guard running, config {int(self.cfg['CONFIG_ID'])}, "
                                                   f"{len(self.cfg['GAINS'])} gains")
@@ -99,6 +112,8 @@ class SimGuard:
 
     # --- the script's loop -------------------------------------------------------------------------------
     def step(self, now_us: int) -> None:
+        if self.cfg is not None and self.state == ARMED and self.f8 is not None:
+            self._fly_figure8(now_us)  # every control period (and right after a KSG_F8 write's echo)
         if self.cfg is None or now_us < self._next_tick:
             return
         self._next_tick = now_us + TICK_US
@@ -127,9 +142,45 @@ class SimGuard:
         self.s.mav.named_value_float_send(ms & 0xFFFFFFFF, b"KSG_CFG", float(self.cfg["CONFIG_ID"]))
         self._next_alive = self.s.now_us + ALIVE_US
 
-    def _set(self, state: int, reason: int | None = None) -> None:
+    def _set_state_param(self, state: int) -> None:
         self.state = state
         self.s.params.force("KSG_STATE", state)
+        if state != ARMED:  # a trip or the tuner's end of the trial ends the figure-8
+            self.f8_start_us = None
+            self.s.params.force("KSG_F8", 0.0)
+            self.s.params.force("KSG_T0", -1.0)
+
+    def _fly_figure8(self, now_us: int) -> None:
+        f, fl = self.f8, self.s.flight
+        nan = np.full(3, np.nan)
+        wanted = int(self.s.params["KSG_F8"])
+        if self.f8_start_us is None:
+            if wanted == 1:
+                self.f8_start_us, self.f8_done = now_us, False
+                self.s.params.force("KSG_T0", float((now_us // 1000) & 0xFFFFFF))
+                self.s.telemetry.statustext(SEV_INFO, "KSG: figure-8 started")
+            return
+        if wanted != 1:  # the tuner stopped it: hold where the vehicle is
+            self.f8_start_us = None
+            self.s.params.force("KSG_T0", -1.0)
+            fl.set_target(np.array(fl.est_pos, float), nan, nan, now_us)
+            return
+        if self.f8_done:
+            return
+        t_ms = (now_us - self.f8_start_us) / 1000.0
+        pos, vel, acc = f.state(min(t_ms, self.cfg["F8_DURATION_MS"]) / 1000.0)
+        if t_ms >= self.cfg["F8_DURATION_MS"]:
+            fl.set_target(pos, nan, nan, now_us)
+            self.f8_done = True
+            self.s.telemetry.statustext(SEV_INFO, "KSG: figure-8 done")
+            return
+        fl.set_target(pos, vel, acc, now_us)
+        err = float(np.linalg.norm(np.asarray(fl.est_pos, float) - pos))
+        if self.cfg.get("TRACK_MAX", 0) > 0 and err > self.cfg["TRACK_MAX"]:
+            self._trip(TRACK, f"tracking error {err:.1f}>{self.cfg['TRACK_MAX']:.1f} m", True)
+
+    def _set(self, state: int, reason: int | None = None) -> None:
+        self._set_state_param(state)
         if reason is not None:
             self.s.params.force("KSG_TRIP", reason)
         self._alive()
