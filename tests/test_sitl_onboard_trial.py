@@ -1,0 +1,63 @@
+"""The figure-8 flown on board by the onboard guard's Lua script on a real ArduCopter SITL: one short figure-8
+(16 s) on board, then the same streamed from the ground, through the tuner's own objective. On board, no setpoint
+goes over the link during the figure-8, the guard reports its start and end, the lap scores complete and like the
+streamed one, and the tlog replays to the live score."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import sitl_or_skip
+from onboard_helpers import fly_pair_of_trials, sent_setpoints, short_mission
+from sitl_instances import release_stopped
+
+from ksbo_mav.mav.guard_script import GUARD_PARAMS, config_for, figure8_for, new_config_id
+from ksbo_mav.mav.link import Endpoint
+from ksbo_mav.mav.monitor import limits_from_profile
+from ksbo_mav.mav.onboard_guard import OnboardGuard
+from ksbo_mav.mav.outcome import TrialOutcome
+from ksbo_mav.mav.tlog import read_tlog
+from ksbo_mav.mav.trajectory import trajectory_from_tlog
+from ksbo_mav.mav.vehicle import Vehicle
+
+pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
+
+
+def test_onboard_figure8_on_arducopter_sitl(tmp_path):
+    sitl = sitl_or_skip("ardupilot", 5)  # booted with SCR_ENABLE 1
+    try:
+        v = Vehicle.connect(Endpoint("tcp", "127.0.0.1", sitl.tcp_port), "ardupilot-copter")
+        try:
+            v.mission = short_mission(v.mission)
+            base = {n: v.params.read(n) for n in v.gain_map.param_names}
+            limits = limits_from_profile(v.profile)
+            guard = OnboardGuard(v.link, v.params, v.cmd)
+            guard.install(config_for(limits, v.heartbeat_timeout, base, new_config_id(),
+                                     figure8=figure8_for(v.mission, 1.5 * limits.tracking_error_max)))
+            v.guard = guard
+            v.setup_streams()
+            v.ensure_airborne()
+            board, ground = fly_pair_of_trials(v, base, tmp_path)
+            for f in (board, ground):
+                assert f.outcome is TrialOutcome.OK, f.meta["message"]
+                assert f.score["complete"], f.score
+            assert board.meta["trajectory"]["on_board"]
+            assert sent_setpoints(board.meta["tlog"]) == 0
+            assert sent_setpoints(ground.meta["tlog"]) >= ground.score["L_expected"]
+            assert any("figure-8 started" in t for t in guard.texts), guard.texts
+            assert any("figure-8 done" in t for t in guard.texts), guard.texts
+            rb, rg = board.score["rms_lap2_m"], ground.score["rms_lap2_m"]
+            print(f"lap-2 RMS on board {rb:.4f} m, streamed {rg:.4f} m; guard said {guard.texts}")
+            assert rb < 1.5 * rg and rg < 1.5 * rb
+            traj, info, _ = trajectory_from_tlog(read_tlog(board.meta["tlog"]))
+            again = v.mission.score(traj, rms_ref=info.get("rms_ref"))
+            assert again["rms_lap2_m"] == pytest.approx(rb, rel=1e-9)
+            v.guard = None
+            guard.remove()
+            for name, default in GUARD_PARAMS.items():
+                assert v.params.read(name) == default
+            v.land()
+        finally:
+            v.close()
+    finally:
+        sitl.stop()
+        release_stopped()
