@@ -21,7 +21,7 @@ import numpy as np
 from ksbo_sim.mavlink.flight import SEV_WARNING
 from ksbo_sim.mavlink.guard import CMD_SCRIPTING, SCRIPTING_RESTART
 from ksbo_sim.mavlink.personality import Mode
-from ksbo_sim.mavlink.telemetry import AUTOPILOT_VERSION
+from ksbo_sim.mavlink.telemetry import AUTOPILOT_VERSION, ON_REQUEST
 
 ACCEPTED, TEMPORARILY_REJECTED, DENIED, UNSUPPORTED, FAILED = 0, 1, 2, 3, 4
 CMD_RTL, CMD_LAND, CMD_TAKEOFF, CMD_DO_SET_MODE, CMD_ARM = 20, 21, 22, 176, 400
@@ -63,6 +63,9 @@ class Commands:
             mode = s.personality.mode_from_command(p[1], p[2])
             if mode is None:
                 result = self._refuse(DENIED, f"Mode: unknown mode {p[1]:g}/{p[2]:g}")
+            elif mode is Mode.AUTO and (f.landed or not f.mission_legs()):
+                result = self._refuse(DENIED, "Mode change to AUTO failed: no mission to fly" if not f.landed
+                                      else "Mode change to AUTO failed: on the ground")
             else:
                 f.set_mode(mode)
                 result = ACCEPTED
@@ -71,7 +74,7 @@ class Commands:
             result = ACCEPTED if ok else self._refuse(DENIED, f"Interval: message {p[0]:g} not streamed")
         elif c in (CMD_REQUEST_MESSAGE, CMD_REQUEST_CAPS):
             mid = AUTOPILOT_VERSION if c == CMD_REQUEST_CAPS else int(p[0])
-            known = mid == AUTOPILOT_VERSION or mid in s.telemetry.intervals
+            known = mid in ON_REQUEST or mid in s.telemetry.intervals
             result = ACCEPTED if known else self._refuse(DENIED, f"Request: message {mid} unknown")
             if known:
                 after = mid

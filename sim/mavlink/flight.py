@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ksbo_sim.estimator import Estimator
+from ksbo_sim.mavlink.auto_nav import AutoNav
 from ksbo_sim.mavlink.personality import Mode
 from ksbo_sim.mavlink.rtl import RTL_SPEED, rtl_setpoint
 from ksbo_sim.vehicle import Setpoint, VehicleModel, VehicleState
@@ -76,6 +77,9 @@ class Flight:
         #: Refuses arming with a reason (the battery's pre-arm check), else None.
         self.arm_check: Callable[[], str | None] = lambda: None
         self.rtl_landing = False
+        #: AUTO: the mission's waypoints from its current item on, [(seq, NED)] (the server's mission store).
+        self.mission_legs: Callable[[], list[tuple[int, np.ndarray]]] = lambda: []
+        self.nav = AutoNav(speed=5.0, accel=2.5, radius=1.0)
         self._place(np.zeros(3))
 
     # --- state -----------------------------------------------------------------------------------------
@@ -165,6 +169,8 @@ class Flight:
         self.rtl_landing = False
         if mode in (Mode.LAND, Mode.RTL):
             self.land_down = float(self.est_pos[2])
+        if mode is Mode.AUTO:
+            self.nav.start(self.est_pos, self.mission_legs())
         if mode is Mode.LAND:
             if self.armed and self.landed:
                 self.armed = False
@@ -253,6 +259,9 @@ class Flight:
             self.land_down = min(0.0, self.land_down + self.land_speed * dt)
             return Setpoint(pos=np.array([self.hold[0], self.hold[1], self.land_down]),
                             vel=np.array([0.0, 0.0, self.land_speed if self.land_down < 0 else 0.0]), acc=nan3)
+        if self.mode is Mode.AUTO and self.armed:
+            pos, vel = self.nav.step(self.est_pos, dt)
+            return Setpoint(pos=pos, vel=vel, acc=nan3)
         if self.mode is Mode.GUIDED and self.target is not None:
             age = (now_us - self.target.t_us) * 1e-6
             if not self.target.timed or age <= self.sp_timeout_s:

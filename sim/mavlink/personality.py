@@ -38,6 +38,7 @@ class Mode(enum.Enum):
     LAND = "land"  # descends and disarms on touchdown
     TAKEOFF = "takeoff"  # PX4 AUTO.TAKEOFF only; ArduPilot takes off inside GUIDED
     RTL = "rtl"  # returns home at the current height and lands there (a failsafe's action)
+    AUTO = "auto"  # flies the stored mission's waypoints (ArduPilot AUTO, PX4 AUTO.MISSION): ksbo_sim.mavlink.auto_nav
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,8 @@ class Personality:
     flight_sw_version: int = (0 << 24) | (1 << 16) | (0 << 8) | 255
     custom_version: bytes = b"ksbosim\0"
     extra_caps: int = 0
+    #: The stored mission keeps home as item 0 and flies from item 1 (ArduPilot); PX4 flies from item 0.
+    mission_home_item: bool = True
 
     @property
     def capabilities(self) -> int:
@@ -83,9 +86,9 @@ class Personality:
         return self.decode_mode(int(p2))
 
 
-_COPTER_MODES = {0: Mode.MANUAL, 4: Mode.GUIDED, 5: Mode.HOLD, 6: Mode.RTL, 9: Mode.LAND, 16: Mode.HOLD,
+_COPTER_MODES = {0: Mode.MANUAL, 3: Mode.AUTO, 4: Mode.GUIDED, 5: Mode.HOLD, 6: Mode.RTL, 9: Mode.LAND, 16: Mode.HOLD,
                  17: Mode.HOLD}
-_COPTER_NAMES = {0: "STABILIZE", 4: "GUIDED", 5: "LOITER", 6: "RTL", 9: "LAND", 16: "POSHOLD", 17: "BRAKE"}
+_COPTER_NAMES = {0: "STABILIZE", 3: "AUTO", 4: "GUIDED", 5: "LOITER", 6: "RTL", 9: "LAND", 16: "POSHOLD", 17: "BRAKE"}
 
 OURS = Personality(name="ours", autopilot=MAV_AUTOPILOT_GENERIC, modes=_COPTER_MODES, mode_names=_COPTER_NAMES,
                    encoding="c_cast")
@@ -95,13 +98,16 @@ ARDUPILOT = Personality(name="ardupilot", autopilot=MAV_AUTOPILOT_ARDUPILOTMEGA,
                         flight_sw_version=(4 << 24) | (7 << 16) | (0 << 8) | 0, custom_version=b"ksbosim\0")
 
 _PX4_MODES = {393216: Mode.GUIDED, 50593792: Mode.HOLD, 196608: Mode.HOLD, 100925440: Mode.LAND,
-              33816576: Mode.TAKEOFF, 84148224: Mode.RTL, 65536: Mode.MANUAL, 131072: Mode.MANUAL}
+              33816576: Mode.TAKEOFF, 84148224: Mode.RTL, 65536: Mode.MANUAL, 131072: Mode.MANUAL,
+              67371008: Mode.AUTO}
 _PX4_NAMES = {393216: "OFFBOARD", 50593792: "AUTO.LOITER", 196608: "POSCTL", 100925440: "AUTO.LAND",
-              33816576: "AUTO.TAKEOFF", 84148224: "AUTO.RTL", 131072: "ALTCTL", 65536: "MANUAL"}
+              33816576: "AUTO.TAKEOFF", 84148224: "AUTO.RTL", 131072: "ALTCTL", 65536: "MANUAL",
+              67371008: "AUTO.MISSION"}
 
 PX4 = Personality(name="px4", autopilot=MAV_AUTOPILOT_PX4, modes=_PX4_MODES, mode_names=_PX4_NAMES,
                   encoding="bytewise", px4_mode_params=True, takeoff_mode=Mode.TAKEOFF,
-                  after_takeoff_mode=Mode.HOLD, vendor_id=0, flight_sw_version=(1 << 24) | (15 << 16) | 255)
+                  after_takeoff_mode=Mode.HOLD, vendor_id=0, flight_sw_version=(1 << 24) | (15 << 16) | 255,
+                  mission_home_item=False)
 
 #: CLI --personality values; ardupilot-legacy differs from ardupilot only in the model's parameter names.
 PERSONALITIES: dict[str, Personality] = {"ours": OURS, "ardupilot": ARDUPILOT, "ardupilot-legacy": ARDUPILOT,

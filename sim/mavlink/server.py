@@ -30,12 +30,13 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from ksbo_sim.errors import SimInputError
 from ksbo_sim.estimator import Estimator
 from ksbo_sim.mavlink.commands import Commands
-from ksbo_sim.mavlink.flight import SEV_NOTICE, STATUS_EMERGENCY, Flight
+from ksbo_sim.mavlink.flight import SEV_INFO, SEV_NOTICE, STATUS_EMERGENCY, Flight
 from ksbo_sim.mavlink.ftp import FtpServer
 from ksbo_sim.mavlink.guard import PARAMS as GUARD_PARAMS
 from ksbo_sim.mavlink.guard import VOLATILE as GUARD_VOLATILE
 from ksbo_sim.mavlink.guard import SimGuard
 from ksbo_sim.mavlink.link import Link
+from ksbo_sim.mavlink.mission_store import MissionStore
 from ksbo_sim.mavlink.params import ParamTable
 from ksbo_sim.mavlink.personality import Personality
 from ksbo_sim.mavlink.power import Power
@@ -68,6 +69,9 @@ def endpoint_specs() -> list[ParamSpec]:
         ParamSpec("SIM_ACC_NOISE", 0.0, 0.0, 100.0, description="accelerometer noise std [m/s^2]"),
         ParamSpec("TKOFF_SPEED", 0.5, 0.05, 5.0, description="takeoff climb rate [m/s]"),
         ParamSpec("LAND_SPEED", 0.5, 0.05, 5.0, description="landing descent rate [m/s]"),
+        ParamSpec("WP_SPEED", 5.0, 0.1, 20.0, description="AUTO: speed along the mission's legs [m/s]"),
+        ParamSpec("WP_ACCEL", 2.5, 0.1, 10.0, description="AUTO: acceleration and braking along a leg [m/s^2]"),
+        ParamSpec("WP_RADIUS", 1.0, 0.05, 10.0, description="AUTO: a waypoint is reached within this [m]"),
         ParamSpec("SIM_LOCKSTEP", 0, 0, 1, "INT32", "1 when the clock is in lockstep (read-only)"),
     ]
 
@@ -89,6 +93,8 @@ class Server:
         battery, conditions = power or (None, None)
         self.power = Power(self.flight, battery, conditions, self._notify)  # (battery, conditions) or nothing
         self.telemetry = Telemetry(self.mav, self.flight, personality, product_id, self.power)
+        self.mission = MissionStore(self.mav, personality.mission_home_item)
+        self.flight.mission_legs = self.mission.legs
         self.commands = Commands(self)
         self.ftp = FtpServer(lambda payload, sysid, compid: self.mav.file_transfer_protocol_send(0, sysid, compid,
                                                                                                  payload))
@@ -136,6 +142,8 @@ class Server:
             f.takeoff_speed = value
         elif name == "LAND_SPEED":
             f.land_speed = value
+        elif name in ("WP_SPEED", "WP_ACCEL", "WP_RADIUS"):
+            setattr(f.nav, {"WP_SPEED": "speed", "WP_ACCEL": "accel", "WP_RADIUS": "radius"}[name], value)
 
     def _write_fault(self, name: str) -> str | None:
         # The fault switches themselves always get through, and so do the onboard guard's own parameters (KSG_*:
@@ -183,6 +191,17 @@ class Server:
             fl.hb_mute_until = time.monotonic() + v["SIM_HB_MUTE_S"]
             self.params.force("SIM_HB_MUTE_S", 0.0)
 
+    def _mission_events(self) -> None:
+        """AUTO's progress as the autopilots report it: MISSION_CURRENT on a new leg, MISSION_ITEM_REACHED."""
+        events, self.flight.nav.events = self.flight.nav.events, []
+        for kind, seq in events:
+            if kind == "current":
+                self.mission.current = seq
+                self.mav.mission_current_send(seq, len(self.mission.items))
+            else:
+                self.mav.mission_item_reached_send(seq)
+                self.telemetry.statustext(SEV_INFO, f"Reached command #{seq}")
+
     def _notify(self, severity: int, text: str) -> None:
         if hasattr(self, "telemetry"):
             self.telemetry.statustext(severity, text)
@@ -196,6 +215,7 @@ class Server:
             self.power.step(self.model.ctrl_dt)
             self.guard.step(self.now_us)
             self.now_us += dt_us
+            self._mission_events()
             if self.link.has_peers:  # nobody listening: skip encoding (matters at high speed-ups)
                 self.telemetry.send_due(self.now_us, (LOCAL_POSITION_NED,) if reply else ())
                 self.link.flush()
@@ -222,6 +242,9 @@ class Server:
             self.commands.set_mode(msg)
         elif kind == "REQUEST_DATA_STREAM":
             self.telemetry.request_data_stream(msg.req_stream_id, msg.req_message_rate, bool(msg.start_stop))
+        elif kind.startswith("MISSION_"):
+            self.mission.handle(msg)
+            self.link.flush()
         elif kind == "FILE_TRANSFER_PROTOCOL":
             self.ftp.handle(msg)
         elif kind == "HEARTBEAT":

@@ -12,11 +12,15 @@ import time
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from ksbo_sim.mavlink.flight import Flight
+from ksbo_sim.mavlink.mission_store import HOME
 from ksbo_sim.mavlink.personality import Mode, Personality
 from ksbo_sim.mavlink.power import Power
 
 HEARTBEAT, SYS_STATUS, SYSTEM_TIME, ATTITUDE, LOCAL_POSITION_NED = 0, 1, 2, 30, 32
 SERVO_OUTPUT_RAW, ACTUATOR_OUTPUT_STATUS, AUTOPILOT_VERSION = 36, 375, 148
+GPS_GLOBAL_ORIGIN, HOME_POSITION = 49, 242
+#: Sent only when asked for (REQUEST_MESSAGE).
+ON_REQUEST = (AUTOPILOT_VERSION, GPS_GLOBAL_ORIGIN, HOME_POSITION)
 
 #: Default intervals (µs of simulated time). Heartbeat and status at 1 Hz, state at 10 Hz.
 DEFAULT_INTERVALS = {HEARTBEAT: 1_000_000, SYS_STATUS: 1_000_000, SYSTEM_TIME: 1_000_000, ATTITUDE: 100_000,
@@ -109,6 +113,12 @@ class Telemetry:
             custom = list(self.p.custom_version[:8].ljust(8, b"\0"))
             mav.autopilot_version_send(self.p.capabilities, self.p.flight_sw_version, 0, 0, 0, custom,
                                        [0] * 8, [0] * 8, self.p.vendor_id, self.product_id, 0)
+        elif msg_id in (GPS_GLOBAL_ORIGIN, HOME_POSITION):  # home is the local frame's origin, on the ground
+            lat, lon, alt = int(round(HOME[0] * 1e7)), int(round(HOME[1] * 1e7)), int(round(HOME[2] * 1000))
+            if msg_id == GPS_GLOBAL_ORIGIN:
+                mav.gps_global_origin_send(lat, lon, alt, now_us)
+            else:
+                mav.home_position_send(lat, lon, alt, 0.0, 0.0, 0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, now_us)
         else:
             return self.power is not None and self.power.send(mav, msg_id, now_us)
         return True

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.errors import KsboError, LinkLost, VerifyError
+from ksbo_mav.errors import KsboError, LinkLost, PilotTookOver, VerifyError
 from ksbo_mav.mav.monitor import Monitor
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.tlog import TlogWriter
@@ -74,7 +74,8 @@ def fly_manoeuvre(vehicle: Vehicle, spec: ManoeuvreSpec, monitor: Monitor, *, ga
                   gains: np.ndarray | None = None, baseline_params: dict[str, float] | None = None,
                   start: np.ndarray | None = None, link_wait_s: float = 30.0,
                   log: Callable[[str], None] = lambda s: None) -> ManoeuvreFlight:
-    """Fly ``spec`` on a vehicle hovering in guided/offboard (:meth:`Vehicle.ensure_airborne`).
+    """Fly ``spec`` from a hover on ``start`` in guided/offboard (:meth:`Vehicle.ensure_airborne` first: it takes
+    off if needed, and refuses a vehicle a pilot has taken over).
 
     Args:
         monitor: the campaign's monitor (its limits; the expected mode follows the manoeuvre).
@@ -101,6 +102,7 @@ def fly_manoeuvre(vehicle: Vehicle, spec: ManoeuvreSpec, monitor: Monitor, *, ga
     outcome, message, stop, restored = T.OK, "", None, None
     try:
         try:
+            v.ensure_airborne(log, at=start)  # (PX4 parks in Hold after each flight: back to offboard)
             if gains is not None:
                 v.write_gains(np.asarray(gains, float))
             _FLY[spec.kind](frame, spec, start, label, detail)
@@ -108,6 +110,8 @@ def fly_manoeuvre(vehicle: Vehicle, spec: ManoeuvreSpec, monitor: Monitor, *, ga
             outcome, message = T(a.outcome), a.message
         except VerifyError as exc:
             outcome, message = T.VERIFY, str(exc)
+        except PilotTookOver as exc:
+            outcome, message = T.PILOT, str(exc)
         except LinkLost as exc:
             outcome, message = T.LINK, str(exc)
         except KeyboardInterrupt as exc:
