@@ -9,9 +9,9 @@ a slow client) is journalled as ``failed`` and never given to the optimiser; the
 Each step lives in its own module: :mod:`~ksbo_mav.campaign.setup` (connect, baseline, snapshot),
 :mod:`~ksbo_mav.campaign.mission_rate` (the mission rate the link carries),
 :mod:`~ksbo_mav.campaign.trials` (the journalled trial loop with retries), :mod:`~ksbo_mav.campaign.search`
-(the optimiser, with the journal replayed on resume), :mod:`~ksbo_mav.campaign.confirm`,
-:mod:`~ksbo_mav.campaign.ending` (restore or accept, land or hold) and :mod:`~ksbo_mav.campaign.result`
-(summary, plots, result.json); this module only orders them.
+(the optimiser and its later stages, with the journal replayed on resume), :mod:`~ksbo_mav.campaign.ending`
+(confirmation flights, restore or accept, land or hold, result.json) and :mod:`~ksbo_mav.campaign.report`
+(the report page and its plots); this module only orders them.
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ from ksbo_mav.campaign.onboard import install_guard, remove_guard
 from ksbo_mav.campaign.setup import baseline_params, connect, create_campaign
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent, summarize
 from ksbo_mav.campaign.trials import TrialLoop
+from ksbo_mav.campaign.validation_session import check_validation, validate_after_tune
 from ksbo_mav.campaign.warm_start import Earlier, warm_search
 from ksbo_mav.campaign.widen import widen_search
 from ksbo_mav.errors import CampaignPaused, InputError, KsboError
@@ -143,6 +144,7 @@ class Campaign:
         self.base = baseline_params(v, self.dir, self.resume, self.log)
         check_moving_start(v.mission, limits_from_profile(v.profile, self.cfg.safety))
         optimizer_options("none", self.cfg.options, self.cfg.method, v.profile)  # gain names: before flying
+        check_validation(v, self.cfg)  # the validation manoeuvres fit the box: known before the tune
         if self.cfg.warm_start:
             Earlier(self.cfg.warm_start).check_matches(v)
         return link
@@ -217,7 +219,9 @@ class Campaign:
         wall_s = time.time() - started
         best_params = v.gain_map.to_params(best)
         failures = confirm_failures(journal.of("confirm"))
-        accepted = leave_gains(v, self.dir, cfg.accept, base, best_params, failures, log)
+        checked = validate_after_tune(v, self.dir, cfg, base, trials, x0, best, failures,
+                                      self.resume_hint.replace("tune --resume", "validate"), log)
+        accepted = leave_gains(v, self.dir, cfg.accept, base, best_params, failures + checked.refusals(), log)
         on_vehicle = {n: v.params.table[n].value for n in base}
         ended = end_flight(v, cfg.end, False, log)
         summary = summarize(journal, result, baseline_x=x0, base=base, baseline_trial=baseline_trial,
