@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any, Callable
 
 import numpy as np
@@ -38,6 +39,7 @@ def optimize(
     p_min: float = 0.0,
     callback: Callable[[int, np.ndarray, float], bool | None] | None = None,
     check_x0: bool = True,
+    early_stop: Mapping[str, Any] | None = None,
     **options: Any,
 ) -> OptimizeResult:
     """Maximise ``fun`` without (knowingly) evaluating it below ``p_min``, starting from the safe ``x0``.
@@ -58,6 +60,10 @@ def optimize(
         seed: random seed (candidates, selection); a fixed seed and a deterministic ``fun`` reproduce the run.
         p_min: safety threshold.
         callback: ``callback(i, x, y)`` after every call of ``fun``; return True to stop early.
+        early_stop: None spends the budget; a table {min_evals, patience, ratio, noise} (keys left out keep their
+            defaults) ends a safe method's search before it once what the next proposal can gain stays below
+            ``ratio`` × the re-flight noise (:mod:`ksbo_mav.opt.methods.stopping`); ``result.info["stop"]`` says
+            where and why. The budget stays the ceiling.
         check_x0: raise :class:`ksbo_mav.errors.UnsafeStartError` (an :class:`InputError`) if ``fun(x0) < p_min``
             or x0's trial aborted or crashed (the run cannot be safe from there).
         **options: method settings, see :class:`ksbo_mav.opt.options.Options` (e.g. ``beta=3.0``,
@@ -91,6 +97,11 @@ def optimize(
     if np.any(x < b[:, 0]) or np.any(x > b[:, 1]):
         raise InputError("x0 lies outside bounds")
     opts = options_for(method, options)
+    stop = None if early_stop is None else dict(early_stop)
+    if stop is not None:
+        from ksbo_mav.opt.methods.stopping import rule_from
+
+        rule_from(stop)  # InputError naming a bad key or value, before anything is evaluated
 
     lower, upper = b[:, 0], b[:, 1]
     pX, py = np.zeros((0, d)), np.zeros(0)
@@ -107,6 +118,6 @@ def optimize(
 
     problem = Problem(
         fun=fun, lower=lower, upper=upper, x0=(x - lower) / (upper - lower), budget=int(budget),
-        p_min=float(p_min), prior_X=pX, prior_y=py, callback=callback,
+        p_min=float(p_min), prior_X=pX, prior_y=py, callback=callback, early_stop=stop,
     )
     return run_problem(problem, method, opts, seed, check_x0=check_x0)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -35,6 +35,7 @@ class Problem:
         prior_X: (m, d) prior inputs in the unit cube; prior_y: (m,) their values.
         callback: ``callback(i, x, y) -> bool | None`` after each call (physical x); truthy stops the run
             (sets ``stopped``; ``remaining`` is then 0).
+        early_stop: the stopping rule's settings (opt.methods.stopping), or None: spend the budget.
     """
 
     fun: Callable[[np.ndarray], float]
@@ -46,6 +47,7 @@ class Problem:
     prior_X: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     prior_y: np.ndarray = field(default_factory=lambda: np.zeros(0))
     callback: Callable[[int, np.ndarray, float], bool | None] | None = None
+    early_stop: dict[str, Any] | None = None
     X: list[np.ndarray] = field(default_factory=list, init=False)
     y: list[float] = field(default_factory=list, init=False)
     outcomes: list[Outcome] = field(default_factory=list, init=False)

@@ -18,6 +18,7 @@ from ksbo_mav.opt.methods.phases import RULES, Phases
 from ksbo_mav.opt.methods.recommend import Recommender
 from ksbo_mav.opt.methods.refly import ReflyPhase
 from ksbo_mav.opt.methods.safe_bo import Refinement, SafeBO
+from ksbo_mav.opt.methods.stopping import rule_from
 from ksbo_mav.opt.models.safety_model import ModelSpec, SafetyModel, active_mask
 from ksbo_mav.opt.models.scale import SafetyScale
 from ksbo_mav.opt.models.surrogate import Surrogate
@@ -92,7 +93,8 @@ def safe_bo_for(
     """The :class:`SafeBO` that ``ksbo``, ``standard`` and ``safeopt`` run on ``problem``: the main GP with
     additive kernel ``orders`` (those above ``problem.dim``, or above the number of ``dims``, dropped) on the
     active dimensions ``dims`` (None: all), the local SE-ARD safety GP when ``opts.safety_kernel == "se"``, and
-    every other part set from ``opts``. Not yet fitted: call ``fit`` on ``problem.data()``. ``seed`` seeds the
+    every other part set from ``opts`` (the stopping rule from ``problem.early_stop``). Not yet fitted: call ``fit`` on
+    ``problem.data()``. ``seed`` seeds the
     GPs, ``rng`` the candidates."""
     d = problem.dim
     orders = tuple(r for r in orders if 1 <= r <= d) or (d,)
@@ -109,6 +111,9 @@ def safe_bo_for(
         safety = SafetyModel(sspec, d, problem.p_min, seed=seed)
     elif opts.safety_kernel not in ("same", "se"):
         raise ValueError(f"unknown safety_kernel {opts.safety_kernel!r}")
-    return build_safe_bo(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
-                         safety_model=safety, n_prior=len(problem.prior_y), budget=problem.budget,
-                         adaptive=part(opts, AdaptiveConfig), stress=problem.can_stress)
+    bo = build_safe_bo(model, bo_config(opts), active_mask(d, dims, spec.dropped_in_order1), rng, x0=problem.x0,
+                       safety_model=safety, n_prior=len(problem.prior_y), budget=problem.budget,
+                       adaptive=part(opts, AdaptiveConfig), stress=problem.can_stress)
+    if problem.early_stop is not None:
+        bo.stopping = rule_from(problem.early_stop)
+    return bo

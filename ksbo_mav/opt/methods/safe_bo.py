@@ -35,6 +35,7 @@ from ksbo_mav.opt.acquisition.trust_region import TrustRegion
 from ksbo_mav.opt.methods.phases import Phases
 from ksbo_mav.opt.methods.recommend import Recommender
 from ksbo_mav.opt.methods.refly import ReflyPhase
+from ksbo_mav.opt.methods.stopping import StoppingRule
 from ksbo_mav.opt.models.safety_model import SafetyModel
 from ksbo_mav.opt.models.surrogate import Surrogate
 from ksbo_mav.opt.observations import Observations
@@ -79,6 +80,7 @@ class SafeBO:
     refinement: Refinement = field(default_factory=Refinement)
     refit_every: int = 0  # full refit every this many iterations; 0 = rank-one updates
     max_aborts: int | None = None  # the backup may cover trials only while fewer trials failed
+    stopping: StoppingRule | None = None  # ends the search once the next proposal cannot pay (opt.methods.stopping)
     iteration: int = field(default=0, init=False)
     fallbacks: int = field(default=0, init=False)
     remaining: int | None = field(default=None, init=False)  # evaluations left for the search (the driver sets it)

@@ -87,6 +87,7 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
         old = bo
         bo = safe_bo_for(problem, fixed, sel.orders, sel.dims, seed, rng)
         bo.iteration, bo.fallbacks = old.iteration, old.fallbacks
+        bo.stopping = old.stopping
         bo.fit(X, y, done, crashed)
         log += run_safe_bo(problem, bo, after=after)
     info["proposals"] = log
@@ -99,6 +100,8 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
         info["trust_region"] = {"radius": bo.trust_region.radius, "history": bo.trust_region.history}
     if problem.stopped and opts.max_aborts is not None and bo.obs.aborts >= opts.max_aborts:
         info["stopped"] = f"max_aborts={opts.max_aborts} reached"
+    if bo.stopping is not None:
+        info["stop"] = bo.stopping.summary(problem.budget)
     if bo.refly.chosen is not None:
         info["reflown"] = [problem.to_physical(bo.obs.X[i]).tolist() for i in bo.refly.chosen]
     i, mu, lcb = bo.final_choice()
