@@ -9,7 +9,7 @@ fields' types. To add a key, add a field (with its default) to the dataclass. Re
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 from ksbo_mav.errors import InputError
@@ -177,9 +177,50 @@ class CampaignSpec:
         _positive(self, "budget")
 
 
+#: Manoeuvres a validation may fly (:mod:`ksbo_mav.mav.validation`).
+MANOEUVRES = ("steps", "hold", "auto_mission")
+
+
+@dataclass(frozen=True)
+class ValidationSpec:
+    """``[validation]``: the flights after a tune that compare the baseline and the recommended gains on what
+    pilots fly (:mod:`ksbo_mav.campaign.validation`). ``manoeuvres``: the kinds flown, in order, comma-separated
+    (empty: no validation, e.g. the planar task, which has no autopilot navigation); ``repeats`` flights of each
+    gain set per manoeuvre in ``--validation quick`` (the default), ``full_repeats`` in ``full``; ``candidates``:
+    further gain sets from the campaign's best trials flown when the recommendation is worse somewhere (``full``;
+    ``quick`` flies one at most). The sub-tables ``[validation.steps]``, ``[validation.hold]`` and
+    ``[validation.auto_mission]`` size each manoeuvre (their keys: :class:`ksbo_mav.mav.validation.ManoeuvreSpec`)."""
+
+    manoeuvres: str = ""
+    repeats: int = 2
+    full_repeats: int = 3
+    candidates: int = 2
+    steps: dict[str, Any] = field(default_factory=dict)
+    hold: dict[str, Any] = field(default_factory=dict)
+    auto_mission: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        odd = [k for k in self.kinds if k not in MANOEUVRES]
+        if odd:
+            raise InputError(f"manoeuvres: {odd[0]!r} unknown (known: {', '.join(MANOEUVRES)})")
+        if self.repeats < 2 or self.full_repeats < 2:
+            raise InputError("repeats and full_repeats must be at least 2 (two flights of each gain set measure "
+                             "their spread)")
+        if self.candidates < 0:
+            raise InputError(f"candidates must be 0 or more, got {self.candidates}")
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        return tuple(k.strip() for k in self.manoeuvres.split(",") if k.strip())
+
+    def sizes(self, kind: str) -> dict[str, Any]:
+        """The sub-table sizing manoeuvre ``kind`` (empty: its defaults)."""
+        return dict(getattr(self, kind))
+
+
 #: Tables of a profile besides [vehicle] and [[gains]], by table name.
 SECTIONS: dict[str, type] = {"trust_region": TrustRegion, "safety": SafetyLimits, "mission": MissionSpec,
-                             "score": ScoreSpec, "campaign": CampaignSpec}
+                             "score": ScoreSpec, "campaign": CampaignSpec, "validation": ValidationSpec}
 
 
 def section_from_table(cls: type, table: dict[str, Any], name: str, where: str) -> Any:
@@ -212,5 +253,7 @@ def _value(kind: str, v: Any) -> Any:
         return v
     if kind.startswith("tuple") and isinstance(v, list):
         return tuple(_value("float", x) for x in v)
+    if kind.startswith("dict") and isinstance(v, dict):
+        return dict(v)
     raise TypeError({"float": "a number", "int": "a whole number", "str": "a string",
-                     "bool": "true or false"}.get(kind, "a list of numbers"))
+                     "bool": "true or false"}.get(kind, "a table" if kind.startswith("dict") else "a list of numbers"))

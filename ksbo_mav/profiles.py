@@ -24,7 +24,7 @@ import numpy as np
 
 from ksbo_mav.errors import InputError
 from ksbo_mav.profile_sections import (FRAMES, GAIN_EXTRA_KEYS, MISSION_TYPES, SECTIONS, VEHICLE_KEYS,  # noqa: F401
-                                       CampaignSpec, MissionSpec, SafetyLimits, ScoreSpec, TrustRegion,
+                                       CampaignSpec, MissionSpec, SafetyLimits, ScoreSpec, TrustRegion, ValidationSpec,
                                        section_from_table)
 
 if sys.version_info >= (3, 11):
@@ -60,6 +60,7 @@ class Profile:
     mission_spec: MissionSpec = MissionSpec()
     score_spec: ScoreSpec = ScoreSpec()
     campaign_spec: CampaignSpec = CampaignSpec()
+    validation_spec: ValidationSpec = ValidationSpec()
 
     @property
     def frame(self) -> str:
@@ -181,7 +182,8 @@ def _parse(data: dict[str, Any], where: str) -> Profile:
     sections = {k: v for k, v in data.items() if k not in {"vehicle", "gains"}}
     return Profile(name=str(vehicle["name"]), vehicle=vehicle, gains=gains, sections=sections, path=where,
                    safety=typed["safety"], trust_region=typed["trust_region"], mission_spec=typed["mission"],
-                   score_spec=typed["score"], campaign_spec=typed["campaign"])
+                   score_spec=typed["score"], campaign_spec=typed["campaign"],
+                   validation_spec=typed["validation"])
 
 
 def _table(data: dict[str, Any], name: str, where: str) -> dict[str, Any]:

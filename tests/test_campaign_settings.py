@@ -107,6 +107,11 @@ def _new_args(tmp_path, *cli: str):
     ("onboard_guard", "stored",
      lambda tmp: config_from_args(_resume_args(tmp, {"onboard_guard": False})).onboard_guard, False),
     ("onboard_guard", "default", lambda tmp: config_from_args(_new_args(tmp)).onboard_guard, True),
+    ("validation", "command_line",
+     lambda tmp: config_from_args(_resume_args(tmp, {"validation": "full"}, "--validation", "off")).validation, "off"),
+    ("validation", "stored", lambda tmp: config_from_args(_resume_args(tmp, {"validation": "full"})).validation,
+     "full"),
+    ("validation", "default", lambda tmp: config_from_args(_new_args(tmp)).validation, "quick"),
     # --end has a command-line default, so the command line always gives it
     ("end", "command_line", lambda tmp: config_from_args(_resume_args(tmp, {"end": "hold"})).end, "land"),
     ("end", "command_line", lambda tmp: config_from_args(_resume_args(tmp, {}, "--end", "hold")).end, "hold"),
@@ -132,8 +137,8 @@ def test_the_whole_chain_command_line_over_stored_over_profile_over_default(tmp_
 #: A value each setting refuses (the test below checks that every declared setting has one).
 BAD = {"dir": 7, "profile": "", "method": "ksb", "budget": 0, "seed": -1, "prior": "simulated", "n_prior": -3,
        "confirm": -1, "widen": "yes", "warm_start": " ", "baseline_every": 2.5, "on_drift": "ignore", "rate_hz": 30,
-       "accept": 1, "end": "crash", "onboard_guard": "off", "settle_s": float("nan"), "sysid": 300, "compid": 0,
-       "safety": {"z_min_m": "low"}, "options": ["beta"]}
+       "validation": "on", "accept": 1, "end": "crash", "onboard_guard": "off", "settle_s": float("nan"),
+       "sysid": 300, "compid": 0, "safety": {"z_min_m": "low"}, "options": ["beta"]}
 
 
 def test_every_declared_setting_is_a_config_field_and_has_a_bad_value_here():

@@ -12,6 +12,8 @@ import numpy as np
 
 from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.campaign.onboard import remove_leftover_guard
+from ksbo_mav.campaign.validation_log import ValidationJournal
+from ksbo_mav.campaign.verdict import judge_pairs, refusal
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.params import Snapshot, load_snapshot, write_param_files
@@ -36,6 +38,11 @@ def write_accepted(d: CampaignDir, base: dict[str, float], best: dict[str, float
     write_param_files(d.accepted_stem, best, types, v.identity.sysid, v.identity.compid)
     lines = [f"{n:<16} {base[n]:>14.7g} -> {best[n]:<14.7g} ({(best[n] - base[n]):+.4g})" for n in best]
     write_file(d.diff, "\n".join(["# parameter     baseline -> accepted", *lines]) + "\n")
+
+
+def validation_refusal(d: CampaignDir) -> str | None:
+    """One line when the validation flights found the recommendation worse than the baseline somewhere."""
+    return refusal(judge_pairs(ValidationJournal(d.validation_journal).entries))
 
 
 def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], None] = print,
@@ -71,6 +78,11 @@ def accept_campaign(path: str | Path, endpoint: Endpoint, log: Callable[[str], N
     if failed and not force:
         raise InputError(f"the recommended gains failed {len(failed)} of {len(result['best']['P_confirm_all'])} "
                          f"confirmation flight(s) ({'; '.join(failed)}); not written. --force writes them anyway")
+    worse = validation_refusal(d)
+    if worse and not force:
+        raise InputError(f"{worse}; not written. --force writes them anyway")
+    if worse:
+        log(f"warning: {worse}; written anyway (--force)")
     snap = load_snapshot(d.snapshot)
     v = Vehicle.connect(endpoint, snap.profile, sysid=sysid, compid=compid, timeout=timeout, log=log)
     try:

@@ -16,7 +16,7 @@ from ksbo_mav.errors import InputError
 #: Default prior sizes: simulator episodes (computed, free) and flown local prior trials.
 PRIOR_SIZES = {"sim": 36, "local": 8}
 #: Settings that may differ on ``--resume`` (they do not change what the optimiser has seen).
-RESUMABLE = ("dir", "accept", "end", "sysid", "compid")
+RESUMABLE = ("dir", "accept", "end", "sysid", "compid", "validation")
 
 
 def _default(name: str) -> Any:
@@ -45,6 +45,7 @@ class CampaignConfig:
     baseline_every: int = _default("baseline_every")
     on_drift: str = _default("on_drift")
     rate_hz: int | None = _default("rate_hz")  # None: the profile's; settle() decides the rate flown
+    validation: str = _default("validation")  # validation flights after the tune: off, quick, full
     accept: bool = _default("accept")
     end: str = _default("end")
     onboard_guard: bool = _default("onboard_guard")

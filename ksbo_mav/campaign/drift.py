@@ -17,10 +17,13 @@ gains, and the campaign says so with the numbers. By default (``on_drift = "stop
 goes on with drift-corrected scores (:meth:`DriftWatch.corrected`): each trial is scored against the baseline
 as last re-flown, carried forward along the trend of the baseline flights, not against the first flight.
 
-The conditions a trial flew in are kept with its journal entry (:class:`ConditionWatch`): the wind the autopilot
-estimates and streams (``WIND`` on ArduPilot, ``WIND_COV`` on PX4: north/east components, NaN while its estimator
-has none), the ``SYS_STATUS`` battery voltage the vehicle's :class:`~ksbo_mav.mav.power.PowerWatch` keeps, and the
-flight index (every flight of the campaign counted: how far into the campaign, and into the pack, a trial came).
+The conditions a trial flew in are kept with its journal entry
+(:class:`~ksbo_mav.campaign.flight_conditions.ConditionWatch`): the wind the autopilot estimates and streams
+(``WIND`` on ArduPilot, ``WIND_COV`` on PX4: north/east components, NaN while its estimator has none; none at all,
+``wind_estimated`` false and an inferred figure instead, when the vehicle does not estimate it: an ArduCopter
+without drag fusion streams a 0 whatever blows), the ``SYS_STATUS`` battery voltage the vehicle's
+:class:`~ksbo_mav.mav.power.PowerWatch` keeps, and the flight index (every flight of the campaign counted: how far
+into the campaign, and into the pack, a trial came).
 The drift message names the conditions that changed between the first baseline flight and the newest.
 """
 
@@ -29,51 +32,15 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
+from ksbo_mav.campaign.flight_conditions import ConditionWatch  # noqa: F401 - the campaign's import place
 from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.errors import CampaignPaused, InputError
-from ksbo_mav.mav.vehicle import Vehicle
 
 ON_DRIFT = ("stop", "continue")
-
-
-class ConditionWatch:
-    """Listens for the autopilot's wind estimate on ``v``'s link; :meth:`take` ends one trial's record."""
-
-    def __init__(self, v: Vehicle) -> None:
-        self.v = v
-        self._speeds: list[float] = []
-        v.link.handlers.append(self._on_message)
-
-    def _on_message(self, msg: Any) -> None:
-        if not self.v.link.is_vehicle(msg):
-            return
-        kind = msg.get_type()
-        if kind == "WIND":
-            speed = float(msg.speed)
-        elif kind == "WIND_COV":
-            speed = math.hypot(float(msg.wind_x), float(msg.wind_y))
-        else:
-            return
-        if math.isfinite(speed):
-            self._speeds.append(speed)
-
-    def start(self) -> None:
-        """A trial begins: the wind heard before it is not its wind."""
-        self._speeds = []
-
-    def take(self, flight_index: int) -> dict[str, float | int | None]:
-        """This trial's conditions: mean and largest wind (m/s), battery voltage (V) now, the flight index."""
-        s = self._speeds
-        self._speeds = []
-        return {"flight": int(flight_index),
-                "wind_mps": round(sum(s) / len(s), 3) if s else None,
-                "wind_max_mps": round(max(s), 3) if s else None,
-                "voltage_v": self.v.power.reading().voltage_v}
 
 
 def conditions_seen(first: JournalEntry, last: JournalEntry) -> str:

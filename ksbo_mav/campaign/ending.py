@@ -100,6 +100,19 @@ def end_flight(v: Vehicle, end: str, error: bool, log: Callable[[str], None]) ->
         return "unknown"
 
 
+def rewrite_report(d: CampaignDir, profile: Any, log: Callable[[str], None]) -> None:
+    """The report written again from disk after later flights (``ksbo-mav validate``); a report that cannot be made
+    is said, never an error on top of the flights."""
+    try:
+        from ksbo_mav.campaign.report.writer import write_report
+
+        paths = write_report(d, profile)
+        if paths.get("page"):
+            log(f"report: {paths['page']}")
+    except Exception as exc:  # noqa: BLE001 - the flights and their journal matter more than the page
+        log(f"report not written: {exc}")
+
+
 def write_result(d: CampaignDir, summary: CampaignSummary, profile: Any, log: Callable[[str], None]) -> None:
     """Draw the report plots into ``summary.plots`` (a plotting problem is logged, never hides the result), then
     write ``result.json`` (temporary file, fsync, rename)."""

@@ -12,6 +12,9 @@ line); it reads and writes ``campaign.json`` itself.
     widen.jsonl              one line per widening of the search box, before a trial flies in it
     drift.json               the drift test's verdict, once it fired
     trials/trial_NNN.*       two-way tlog + JSON record of every trial
+    validation.jsonl         one line per validation flight (never the optimiser's), appended and fsynced
+    validation/flight_NNN.tlog   two-way tlog of every validation flight
+    validation_start.json    the gains `ksbo-mav validate` found on the vehicle (put back at its end)
     result.json              recommendation, before/after, safety counts
     report/                  index.html and its plots (NAME.png)
     accepted.param/.params, diff.txt   written on accept
@@ -81,6 +84,21 @@ class CampaignDir:
     @property
     def trials(self) -> Path:
         return self.root / "trials"
+
+    @property
+    def validation_journal(self) -> Path:
+        return self.root / "validation.jsonl"
+
+    @property
+    def validation_flights(self) -> Path:
+        return self.root / "validation"
+
+    def validation_tlog(self, index: int) -> Path:
+        return self.validation_flights / f"flight_{index:03d}{TLOG_SUFFIX}"
+
+    @property
+    def validation_start(self) -> Path:
+        return self.root / "validation_start.json"
 
     @property
     def result(self) -> Path:

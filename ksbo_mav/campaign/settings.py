@@ -18,6 +18,8 @@ from ksbo_mav.opt.constraints import BOOL, Choice, Interval
 PRIOR_KINDS = ("auto", "sim", "local", "none")
 END_MODES = ("land", "hold")
 DRIFT_ACTIONS = ("stop", "continue")
+#: Validation flights after the tune (ksbo_mav.campaign.validation): none, the profile's repeats, or its full set.
+VALIDATION_MODES = ("off", "quick", "full")
 #: Mission rates (Hz) a campaign may fly at: setpoints carry feed-forward, so the autopilot fills in between them.
 MISSION_RATES_HZ = (50, 25, 20, 10)
 
@@ -118,6 +120,9 @@ SETTINGS: tuple[Setting, ...] = (
             "when the vehicle drifted: stop (land, resumable) or continue (scores follow its trend)"),
     Setting("rate_hz", Unset(Choice(MISSION_RATES_HZ)), None, "--rate",
             "mission rate in Hz (unset: the profile's, lowered by the link check if the link cannot carry it)"),
+    Setting("validation", Choice(VALIDATION_MODES), "quick", "--validation",
+            "after the tune, fly baseline and recommendation alternately on the profile's [validation] manoeuvres "
+            "(steps, hold, AUTO mission): quick, full (more flights) or off"),
     Setting("accept", BOOL, False, "--accept", "leave the best gains on the vehicle unless a confirmation failed"),
     Setting("end", Choice(END_MODES), "land", "--end", "after the campaign: land and disarm, or hold position"),
     Setting("onboard_guard", BOOL, True, "--onboard-guard",

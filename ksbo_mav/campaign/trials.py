@@ -85,7 +85,8 @@ class TrialLoop:
 
     def _entry(self, kind: str, f: Flight) -> JournalEntry:
         e = JournalEntry.of(kind, f)
-        cond = self.conditions.take(len(self.journal.entries)) if self.conditions is not None else {}
+        cond = self.conditions.take(len(self.journal.entries), CampaignDir.tlog_of(f.meta["record"])) \
+            if self.conditions is not None else {}
         drift = self.drift
         if kind == "opt" and drift is not None and drift.ref is not None:  # scored in the same condition
             cond["P_corrected"] = drift.corrected(self.journal, f.P, f.score.get("rms_lap2_m"),

@@ -15,7 +15,7 @@ from ksbo_mav.errors import CampaignPaused, KsboError
 
 #: Command modules, in the order `--help` lists them.
 COMMANDS: tuple[str, ...] = ("evaluate", "sim", "prior", "select", "tune", "report", "score", "compare", "check",
-                             "restore", "accept", "demo")
+                             "validate", "restore", "accept", "demo")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -57,6 +57,7 @@ def add_parser(subparsers) -> None:
     g.add_argument("--onboard-guard", dest="onboard_guard", action=argparse.BooleanOptionalAction, default=None,
                    help="the onboard guard (ArduPilot Lua, needs SCR_ENABLE 1): baseline back on a lost link; "
                         "on unless --no-onboard-guard (said in the report)")
+    g.add_argument("--validation", metavar="MODE", help=_help("validation"))
     g.add_argument("--json", action="store_true", help="print the final summary as JSON")
     g = p.add_argument_group(GROUPS[4])
     g.add_argument("--method", help=_help("method", "; or " + ", ".join(m for m in METHODS
@@ -142,7 +143,7 @@ def config_from_args(args: argparse.Namespace):
     # --end has a default, so it is always given; --accept only turns accepting on.
     resumable = {"end": args.end, **({"accept": True} if args.accept else {}),
                  **({"onboard_guard": args.onboard_guard} if args.onboard_guard is not None else {}),
-                 **{k: getattr(args, k) for k in ("sysid", "compid", "baseline_every", "on_drift")
+                 **{k: getattr(args, k) for k in ("sysid", "compid", "baseline_every", "on_drift", "validation")
                     if getattr(args, k) is not None}}
     for name, value in {**given, **resumable}.items():
         check_setting(name, value)  # before a stored campaign is read: the value's own fault comes first

@@ -18,8 +18,10 @@ def plot_conditions(rec: CampaignRecord, path: Path) -> str | None:
     base = [r for r in rec.rows if r.role in ("baseline", "baseline re-flight") and r.entry.outcome == "ok"]
     cond = [r for r in rec.rows if r.entry.cond]
     wind = [(r.trial, r.entry.cond["wind_mps"]) for r in cond if r.entry.cond.get("wind_mps") is not None]
+    # A vehicle that does not estimate the wind streams a zero: said, never drawn as a measurement.
+    unestimated = any(r.entry.cond.get("wind_estimated") is False for r in cond)
     volt = [(r.trial, r.entry.cond["voltage_v"]) for r in cond if r.entry.cond.get("voltage_v") is not None]
-    if len(base) < 2 and not wind and not volt:
+    if len(base) < 2 and not wind and not volt and not unestimated:
         return None
     plt = pyplot()
     fig, axes = plt.subplots(3, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
@@ -32,6 +34,9 @@ def plot_conditions(rec: CampaignRecord, path: Path) -> str | None:
                                  (axes[2], volt, "battery voltage", "V")):
         if pts:
             ax.plot([t for t, _ in pts], [v for _, v in pts], ".", color="C1", label=label)
+        elif ax is axes[1] and unestimated:
+            ax.text(0.5, 0.5, "wind: not estimated by the vehicle (no drag fusion or airspeed sensor)",
+                    transform=ax.transAxes, ha="center", color="0.4")
         else:
             ax.text(0.5, 0.5, f"no {label} from the vehicle", transform=ax.transAxes, ha="center", color="0.4")
         ax.set_ylabel(unit)

@@ -136,6 +136,8 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
                                                    "did not fit the link" if fig.reduced_from_hz else ""))))
         if result["link"].get("on_link_loss"):
             rows.append(("If the link dies", esc(result["link"]["on_link_loss"])))
+    if result and result.get("validation_lines"):
+        rows.append(("Validation", "<br/>".join(esc(line) for line in result["validation_lines"])))
     if result and result.get("drift"):
         rows.append(("Vehicle changed", f'<span class="warn">{esc(result["drift"])}</span>'))
     if result and result.get("same_condition"):
@@ -210,6 +212,7 @@ def render(rec: CampaignRecord, result: dict[str, Any] | None, hits: Sequence[Ed
 <div class="verdict"><p class="headline">{esc(headline(rec, result))}</p><table>
 {verdict}
 </table></div>
+{(result or {}).get("validation_html", "")}
 <h2>Plots</h2>
 {figures}
 <h2>Trials</h2>

@@ -114,6 +114,8 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     from ksbo_mav.campaign.drift import load_drift
     from ksbo_mav.campaign.report.conditions import plot_conditions, same_condition
     from ksbo_mav.campaign.report.page import write_page
+    from ksbo_mav.campaign.report.validation_table import validation_section, verdict_lines
+    from ksbo_mav.campaign.validation_log import ValidationJournal
 
     d = d if isinstance(d, CampaignDir) else CampaignDir.at(d)
     d.report.mkdir(parents=True, exist_ok=True)
@@ -139,6 +141,10 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     paths["safety"] = plot_safety(rec, d.report_plot("safety")) or "none"
     paths["conditions"] = plot_conditions(rec, d.report_plot("conditions")) or "none"
     drift, same = load_drift(d), same_condition(rec)
+    flown = ValidationJournal(d.validation_journal).entries
+    if flown:
+        result = {**(result or {}), "validation_lines": verdict_lines(flown),
+                  "validation_html": validation_section(flown)}
     if drift:
         result = {**(result or {}), "drift": drift}
     if same:

@@ -1,0 +1,160 @@
+"""Validation flights in a campaign on the built-in simulator (JSBSim copter as ArduPilot, lockstep, its own process
+over loopback UDP), small and quick: the tuner killed (SIGKILL) in the middle of the validation and resumed flies
+exactly the missing flights, alternated A B A B; none reaches the optimiser's journal; the console and the report
+give the verdict per manoeuvre; the vehicle ends with the snapshot's gains; `accept` refuses, in one line, a
+recommendation the validation found worse (unless --force) and `validate` flies nothing twice."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from mav_tune_helpers import fresh_read, sim_and_endpoint
+
+from ksbo_mav.campaign.validation_log import ValidationJournal
+from ksbo_mav.campaign.verdict import judge_pairs, refusal
+from ksbo_mav.cli import main
+
+pytestmark = [pytest.mark.network, pytest.mark.timeout(600)]
+
+NAMES = ["PSC_NE_POS_P", "PSC_NE_VEL_P", "PSC_NE_VEL_I", "PSC_NE_VEL_D", "PSC_D_POS_P", "PSC_D_VEL_P"]
+#: The copter profile with small validation manoeuvres (quick halves them again): a short test.
+SMALL = """
+[validation]
+manoeuvres = "steps,hold,auto_mission"
+repeats = 2
+
+[validation.steps]
+offsets_m = [[3.0, 0.0, 0.0]]
+dwell_s = 6.0
+settle_s = 1.0
+
+[validation.hold]
+seconds = 6.0
+settle_s = 1.0
+
+[validation.auto_mission]
+size_m = [4.0, 3.0]
+settle_s = 1.0
+"""
+
+
+def _profile(tmp: Path) -> Path:
+    text = (Path(__file__).parent.parent / "params" / "ardupilot-copter.toml").read_text()
+    text = text[:text.index("[validation]")] + SMALL
+    p = tmp / "small-validation.toml"
+    p.write_text(text)
+    return p
+
+
+def _lines(path: Path) -> list[dict]:
+    return [json.loads(x) for x in path.read_text().splitlines() if x.strip()] if path.exists() else []
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    """A campaign killed after three validation flights and resumed; yields (dir, sim, endpoint, outputs)."""
+    tmp = tmp_path_factory.mktemp("validation")
+    d = tmp / "c"
+    prof = _profile(tmp)
+    with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot") as (sim, ep):
+        before = fresh_read(sim, NAMES, None)
+        cmd = [sys.executable, "-m", "ksbo_mav.cli", "tune", "--udp", f"127.0.0.1:{ep.port}"]
+        proc = subprocess.Popen([*cmd, str(d), "--profile", str(prof), "--budget", "3", "--method", "random",
+                                 "--prior", "none", "--end", "hold", "--no-onboard-guard"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 400
+        while len(_lines(d / "validation.jsonl")) < 3:
+            assert proc.poll() is None, proc.communicate()[1][-3000:]
+            assert time.monotonic() < deadline, "no validation flight"
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        killed_at = len(_lines(d / "validation.jsonl"))
+        resumed = subprocess.run([*cmd, "--resume", str(d), "--end", "hold"], capture_output=True, text=True,
+                                 timeout=500)
+        assert resumed.returncode == 0, resumed.stderr[-3000:]
+        yield d, sim, ep, {"before": before, "killed_at": killed_at, "resumed": resumed}
+
+
+def test_resumed_validation_flies_each_slot_once_alternated(campaign):
+    d, _, _, out = campaign
+    flights = _lines(d / "validation.jsonl")
+    assert 3 <= out["killed_at"] < len(flights) == 12  # 3 manoeuvres x 2 repeats x 2 gain sets
+    for m in ("steps", "hold", "auto_mission"):
+        mine = [f for f in flights if f["manoeuvre"] == m]
+        assert [f["gains"] for f in mine] == ["baseline", "recommendation"] * 2  # A B A B
+        assert all(f["outcome"] == "ok" and f["restored"] for f in mine)
+    assert [f["flight"] for f in flights] == sorted({f["flight"] for f in flights})  # numbered once each
+    for f in flights:
+        assert Path(f["tlog"]).stat().st_size > 0
+    # The flight the kill interrupted was not journalled; its tlog number is not reused.
+    assert len(list((d / "validation").glob("flight_*.tlog"))) >= len(flights)
+
+
+def test_no_validation_flight_reaches_the_optimiser(campaign):
+    d, _, _, _ = campaign
+    trials = _lines(d / "journal.jsonl")
+    assert [t["kind"] for t in trials] == ["opt", "opt", "opt", "confirm"]
+    records = {Path(t["record"]).with_suffix(".tlog").name for t in trials}
+    assert not records & {Path(f["tlog"]).name for f in _lines(d / "validation.jsonl")}
+
+
+def test_console_and_report_give_the_verdict_per_manoeuvre(campaign):
+    d, _, _, out = campaign
+    text = out["resumed"].stderr + out["resumed"].stdout
+    verdicts = judge_pairs(ValidationJournal(d / "validation.jsonl").entries)
+    assert "validation, recommendation against the baseline: " + verdicts[0].overall in text
+    page = (d / "report" / "index.html").read_text()
+    assert "<h2>Validation flights</h2>" in page and "hold_rms_m *" in page and "xtrack_rms_m *" in page
+    for m, j in verdicts[0].judged.items():
+        assert f"  {j.line(m)}" in text  # the console line, with the figures and the spread
+        assert j.verdict in ("better", "no measurable change", "worse")
+
+
+def test_the_vehicle_ends_with_the_snapshot_gains(campaign):
+    _, sim, _, out = campaign
+    assert fresh_read(sim, NAMES, None) == pytest.approx(out["before"], rel=1e-6)
+
+
+def test_accept_refuses_a_recommendation_worse_in_validation_unless_forced(campaign, tmp_path, capsys):
+    d, sim, ep, out = campaign
+    worse = tmp_path / "worse"
+    shutil.copytree(d, worse)
+    journal = ValidationJournal(worse / "validation.jsonl")
+    # In this copy the recommendation's hold drifted a metre further than flown: worse beyond the spread.
+    for e in journal.entries:
+        if e.manoeuvre == "hold" and e.gains == "recommendation":
+            e.metrics["hold_rms_m"] = 1.0 + 2 * e.metrics["hold_rms_m"]
+    (worse / "validation.jsonl").write_text("".join(e.to_json() + "\n" for e in journal.entries))
+    line = refusal(judge_pairs(ValidationJournal(worse / "validation.jsonl").entries))
+    assert line and "hold: worse" in line
+    port = ["--udp", f"127.0.0.1:{ep.port}"]
+    assert main(["accept", str(worse), *port]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "worse than the baseline" in err and "--force" in err
+    assert fresh_read(sim, NAMES, None) == pytest.approx(out["before"], rel=1e-6)  # nothing written
+    assert main(["accept", str(worse), *port, "--force"]) == 0
+    assert "warning: the recommendation flew worse" in capsys.readouterr().out
+    best = json.loads((worse / "result.json").read_text())["best"]["values"]
+    assert fresh_read(sim, NAMES, None) == pytest.approx(best, rel=1e-5)
+    assert main(["restore", str(worse), *port]) == 0
+    assert fresh_read(sim, NAMES, None) == pytest.approx(out["before"], rel=1e-6)
+
+
+def test_validate_later_flies_nothing_twice(campaign, capsys):
+    d, sim, ep, out = campaign
+    n = len(_lines(d / "validation.jsonl"))
+    assert main(["validate", str(d), "--udp", f"127.0.0.1:{ep.port}", "--end", "hold"]) == 0
+    assert len(_lines(d / "validation.jsonl")) == n
+    text = capsys.readouterr().out
+    assert "the vehicle holds the baseline gains" in text and "validation, recommendation against the baseline" in text
+    assert not (d / "validation_start.json").exists()
+    assert fresh_read(sim, NAMES, None) == pytest.approx(out["before"], rel=1e-6)
