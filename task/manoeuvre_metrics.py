@@ -13,7 +13,8 @@ floats (NaN where the figure does not exist, e.g. a step that never settled) und
 * :func:`mission_tracking` — a mission flown along straight legs through ``waypoints``: ``xtrack_rms_m`` and
   ``xtrack_max_m`` (horizontal distance to the leg being flown), ``vert_rms_m``, per corner ``overshoot_m`` (how far
   the vehicle went on in the incoming leg's direction past the corner) and ``settle_s`` (from passing the corner
-  until it stays within ``settle_band_m`` of the outgoing leg), the same at the final waypoint, and ``time_s``
+  until it stays within ``settle_band_m`` of the outgoing leg; both judged over the first half of that leg, so the
+  next corner's own rounding does not count against this one), the same at the final waypoint, and ``time_s``
   (from the first sample to the first one within ``arrive_m`` of the final waypoint on the last leg).
 
 A sample belongs to leg k until it crosses the bisector of the corner at the leg's end (the line through the
@@ -134,10 +135,14 @@ def mission_tracking(t: np.ndarray, pos: np.ndarray, waypoints: np.ndarray, *, s
         if not len(after):
             out[f"corner{c}_overshoot_m"], out[f"corner{c}_settle_s"] = NAN, NAN
             continue
-        first_half = after[_along(pos[after], wp[c], wp[c + 1]) <= 0.5]
-        past = (pos[first_half, :2] - wp[c, :2]) @ u_in if len(first_half) else np.zeros(1)
+        half = _along(pos[after], wp[c], wp[c + 1]) <= 0.5
+        first_half = after[: int(np.argmin(half))] if not half.all() else after  # until it first passes half-way
+        if not len(first_half):
+            first_half = after[:1]
+        past = (pos[first_half, :2] - wp[c, :2]) @ u_in
         out[f"corner{c}_overshoot_m"] = float(max(0.0, float(past.max())))
-        out[f"corner{c}_settle_s"] = _settle_time(t[after], xt[after] > settle_band_m, float(t[after[0]]))
+        out[f"corner{c}_settle_s"] = _settle_time(t[first_half], xt[first_half] > settle_band_m,
+                                                  float(t[after[0]]))
     last = np.flatnonzero(leg == m - 2)
     u_last = _unit(wp[-1] - wp[-2])
     beyond = (pos[last, :2] - wp[-1, :2]) @ u_last

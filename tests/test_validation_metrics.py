@@ -110,3 +110,12 @@ def test_leg_assignment_follows_the_bisector_and_cross_track_is_to_the_segment()
     assert list(assign_legs(pos, BOX)) == [0, 0, 1, 1]
     assert list(cross_track(np.array([[4.0, 0.5, 0], [10.0, 0.0, 0], [-3.0, -4.0, 0]]), BOX[0], BOX[1])) == \
         pytest.approx([0.5, 2.0, 5.0])
+
+
+def test_a_corner_settles_though_the_next_corner_is_cut():
+    # leg 2 is flown on its line, then corner 2 is cut from (8, 4) to (7, 5): half a metre off leg 2 at the end
+    t, pos = _path([(0, 0), (8, 0), (8, 4), (7, 5), (0, 5)])
+    m = mission_tracking(t, pos, BOX[:4])
+    assert m["xtrack_max_m"] == pytest.approx(0.5, abs=0.02)
+    assert m["corner1_settle_s"] == 0.0 and m["corner1_overshoot_m"] == 0.0
+    assert m["corner2_overshoot_m"] == 0.0 and m["final_overshoot_m"] == 0.0

@@ -13,7 +13,8 @@ def add_parser(subparsers) -> None:
         "compare", help="compare the tracking of two flight logs (before/after a tune), side by side, with a plot",
         description="Scores both logs like `ksbo-mav score` (any of .tlog/.BIN/.ulg, mixed freely) and puts the "
                     "same segment type side by side: the profile's figure-8 when both logs have one (per lap), "
-                    "else the longest tracking segment of each.")
+                    "else the longest tracking segment of each. Two validation flights' tlogs (the same "
+                    "manoeuvre) give their figures side by side.")
     p.add_argument("a", metavar="A", help="first log (e.g. before the tune)")
     p.add_argument("b", metavar="B", help="second log (e.g. after the tune)")
     p.add_argument("--profile", default=None, help="profile whose mission applies (default: per log's autopilot)")
@@ -87,6 +88,12 @@ def run(args: argparse.Namespace) -> int:
     from ksbo_mav.errors import InputError
     from ksbo_mav.flightlog import score_file
 
+    from ksbo_mav.mav.validation.manoeuvre_log import compare_validation, format_comparison, is_validation_tlog
+
+    if all(is_validation_tlog(p) for p in (args.a, args.b)):  # two validation flights: their figures side by side
+        c = compare_validation(args.a, args.b)
+        print(to_json(c) if args.json else "\n".join(format_comparison(c)))
+        return 0
     if args.plot:
         from ksbo_mav.flightlog.log_plots import check_plot_path
 

@@ -4,7 +4,8 @@ The format is detected from the file's content. A trial tlog written by this too
 markers) is re-scored exactly as the tuner scored it live, plus the segment analysis below; any other
 log is split into the segments where the vehicle tracked position targets (guided / auto / offboard) and each is
 scored against the autopilot's own logged target and, for the profile's figure-8, per lap against the analytic
-reference as well, with the profile's P (:mod:`ksbo_mav.flightlog`).
+reference as well, with the profile's P (:mod:`ksbo_mav.flightlog`). A validation flight's tlog (its ``ksbo val``
+markers) gives that flight's figures again (:mod:`ksbo_mav.mav.validation.manoeuvre_log`).
 """
 
 from __future__ import annotations
@@ -24,7 +25,8 @@ def add_parser(subparsers) -> None:
                     "MISSION) and scores each: RMS and max tracking error (horizontal, vertical) against the "
                     "autopilot's logged target; for the profile's figure-8 also per lap and against the analytic "
                     "reference, with the profile's P. A trial tlog written by `ksbo-mav tune` is re-scored "
-                    "exactly as live. The format is detected from the content, not the file name.")
+                    "exactly as live; a validation flight's tlog gives its figures (steps, hold, mission) "
+                    "again. The format is detected from the content, not the file name.")
     p.add_argument("log", metavar="FILE", help=".tlog, DataFlash .BIN or ULog .ulg")
     p.add_argument("--profile", default=None,
                    help="profile whose mission/[score] apply (default: px4-copter for PX4 logs, ardupilot-copter "
@@ -60,6 +62,14 @@ def run(args: argparse.Namespace) -> int:
     fmt = detect_format(args.log)
     if fmt == "tlog" and is_trial_tlog(args.log):
         return _run_trial(args)
+    if fmt == "tlog":
+        from ksbo_mav.mav.validation.manoeuvre_log import format_validation, is_validation_tlog, \
+            score_validation_tlog
+
+        if is_validation_tlog(args.log):  # a validation flight's figures, re-measured from its packets
+            result = score_validation_tlog(args.log)
+            print(to_json(result) if args.json else "\n".join(format_validation(result)))
+            return 0
     return _run_generic(args)
 
 

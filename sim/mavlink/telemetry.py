@@ -18,9 +18,9 @@ from ksbo_sim.mavlink.power import Power
 
 HEARTBEAT, SYS_STATUS, SYSTEM_TIME, ATTITUDE, LOCAL_POSITION_NED = 0, 1, 2, 30, 32
 SERVO_OUTPUT_RAW, ACTUATOR_OUTPUT_STATUS, AUTOPILOT_VERSION = 36, 375, 148
-GPS_GLOBAL_ORIGIN, HOME_POSITION = 49, 242
+GPS_GLOBAL_ORIGIN, HOME_POSITION, RC_CHANNELS = 49, 242, 65
 #: Sent only when asked for (REQUEST_MESSAGE).
-ON_REQUEST = (AUTOPILOT_VERSION, GPS_GLOBAL_ORIGIN, HOME_POSITION)
+ON_REQUEST = (AUTOPILOT_VERSION, GPS_GLOBAL_ORIGIN, HOME_POSITION, RC_CHANNELS)
 
 #: Default intervals (µs of simulated time). Heartbeat and status at 1 Hz, state at 10 Hz.
 DEFAULT_INTERVALS = {HEARTBEAT: 1_000_000, SYS_STATUS: 1_000_000, SYSTEM_TIME: 1_000_000, ATTITUDE: 100_000,
@@ -113,6 +113,8 @@ class Telemetry:
             custom = list(self.p.custom_version[:8].ljust(8, b"\0"))
             mav.autopilot_version_send(self.p.capabilities, self.p.flight_sw_version, 0, 0, 0, custom,
                                        [0] * 8, [0] * 8, self.p.vendor_id, self.product_id, 0)
+        elif msg_id == RC_CHANNELS:  # a transmitter with its sticks centred (the pilot lets the autopilot fly)
+            mav.rc_channels_send(ms, 8, *([1500] * 8 + [0] * 10), 255)
         elif msg_id in (GPS_GLOBAL_ORIGIN, HOME_POSITION):  # home is the local frame's origin, on the ground
             lat, lon, alt = int(round(HOME[0] * 1e7)), int(round(HOME[1] * 1e7)), int(round(HOME[2] * 1000))
             if msg_id == GPS_GLOBAL_ORIGIN:

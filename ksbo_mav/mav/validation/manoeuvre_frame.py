@@ -52,9 +52,11 @@ class ManoeuvreFrame:
         """The campaign's limits, expecting the stack's ``mode`` ("guided", "hold", "auto") in the heartbeat."""
         return Monitor(self.monitor.limits, self.v.stack.modes[mode], self.v.stack.mode_name)
 
-    def check(self, lpn: Any, monitor: Monitor) -> None:
-        g = self.v.guided
-        bad = monitor.check_heartbeat(g.heartbeat) or monitor.check_sample(lpn, self.v.telemetry.last_att, None)
+    def check(self, lpn: Any, monitor: Monitor, also: Callable[[], set[int]] = set) -> None:
+        """The monitor on one sample; a heartbeat in one of the modes ``also()`` is not a mode change."""
+        hb = self.v.guided.heartbeat
+        bad = None if hb is not None and int(hb.custom_mode) in also() else monitor.check_heartbeat(hb)
+        bad = bad or monitor.check_sample(lpn, self.v.telemetry.last_att, None)
         if bad:
             raise ManoeuvreAbort(*bad)
 
@@ -69,9 +71,11 @@ class ManoeuvreFrame:
         v.guided.follow(lambda j: (point, None, None), n, m.dt_ms, lambda s: self.check(s, self.monitor), self.log)
         v.guided.hold_at(point)
 
-    def watch(self, seconds: float, mode: str, until: Callable[[], bool] | None = None) -> bool:
+    def watch(self, seconds: float, mode: str, until: Callable[[], bool] | None = None,
+              also: Callable[[], set[int]] = set) -> bool:
         """Let the autopilot fly its ``mode`` for up to ``seconds`` of vehicle time (stopping early once ``until()``
-        holds; returns whether it did), every position sample checked by the monitor expecting that mode."""
+        holds; returns whether it did), every position sample checked by the monitor expecting that mode (or one of
+        the custom modes ``also()`` gives at that moment)."""
         mon = self.monitor_for(mode)
         fresh: list[Any] = []
         tel = self.v.telemetry
@@ -79,7 +83,7 @@ class ManoeuvreFrame:
 
         def done() -> bool:
             while fresh:
-                self.check(fresh.pop(0), mon)
+                self.check(fresh.pop(0), mon, also)
             return bool(until()) if until is not None else False
 
         try:

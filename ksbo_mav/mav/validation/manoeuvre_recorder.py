@@ -13,6 +13,9 @@ Markers (STATUSTEXTs the tool sends, so they are in the tlog in both directions'
 * ``ksbo val wp <n> <e> <d>`` (one per waypoint, local NED m) and ``ksbo val go t=<ms>`` — the mission's legs and
   the time its mode was confirmed;
 * ``ksbo val end t=<ms> <outcome>`` — the measured part ended at t.
+
+The vehicle's own MISSION_ITEM_REACHED reports are kept (stamped with the newest position sample's time): the
+mission's ``time_s`` is from its start to the first report of its last item, the autopilot's own "done".
 """
 
 from __future__ import annotations
@@ -86,6 +89,7 @@ class ManoeuvreRecorder:
     outcome: str = ""
     pos: dict[int, np.ndarray] = field(default_factory=dict)
     att: dict[int, tuple[float, float]] = field(default_factory=dict)
+    reached: dict[int, int] = field(default_factory=dict)  # mission seq -> vehicle ms of its first report
     _target: np.ndarray | None = None
     _prev_target: np.ndarray | None = None
 
@@ -106,6 +110,8 @@ class ManoeuvreRecorder:
             return
         if kind == "LOCAL_POSITION_NED":
             self.pos[int(msg.time_boot_ms)] = np.array([msg.x, msg.y, msg.z], dtype=float)
+        elif kind == "MISSION_ITEM_REACHED" and self.go_t is not None and self.pos:
+            self.reached.setdefault(int(msg.seq), max(self.pos))
         elif kind == "ATTITUDE":
             self.att[int(msg.time_boot_ms)] = (float(msg.roll), float(msg.pitch))
 
@@ -150,7 +156,9 @@ class ManoeuvreRecorder:
         ``hold_vert_rms_m``, ``hold_lean_deg`` (the mean lean that held the vehicle there), ``hold_s``; mission
         ``xtrack_rms_m``, ``xtrack_max_m``, ``vert_rms_m``, ``corner<i>_overshoot_m``, ``corner<i>_settle_s``,
         ``corner_overshoot_m_mean``, ``corner_settle_s_mean``, ``corners_unsettled``, ``final_overshoot_m``,
-        ``final_settle_s``, ``time_s``. NaN where a figure does not exist (a step that never settled)."""
+        ``final_settle_s``, ``time_s`` (to the vehicle's report of its last item; without reports, to ``arrive_s``)
+        and ``arrive_s`` (to the first sample within the arrival radius of the last waypoint). NaN where a figure
+        does not exist (a step that never settled)."""
         if self.t0 is None:
             raise InputError("no validation start marker ('ksbo val start ...') in the log")
         if self.end_t is None:
@@ -163,7 +171,11 @@ class ManoeuvreRecorder:
         if self.go_t is None or len(self.waypoints) < 2:
             return {}
         t, pos = self._samples(self.go_t, self.end_t)
-        return mission_tracking(t, pos, np.array(self.waypoints), settle_band_m=sb, arrive_m=ar)
+        out = mission_tracking(t, pos, np.array(self.waypoints), settle_band_m=sb, arrive_m=ar)
+        out["arrive_s"] = out.pop("time_s")
+        done = self.reached.get(max(self.reached)) if self.reached else None
+        out["time_s"] = (done - self.go_t) / 1000.0 if done is not None else out["arrive_s"]
+        return out
 
     def _steps(self, sf: float, sm: float) -> dict[str, float]:
         out: dict[str, float] = {}

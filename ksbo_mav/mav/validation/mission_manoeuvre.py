@@ -4,7 +4,8 @@ The user's stored mission is downloaded first and put back afterwards (or the mi
 whatever the outcome, once the vehicle is back in guided/offboard or left to the pilot. The mission's waypoints go
 up with the mission protocol (:mod:`ksbo_mav.mav.mission_transfer`), the vehicle switches to its auto mode and flies
 them; the flight ends when the vehicle reports the last item reached (MISSION_ITEM_REACHED) or is within
-``arrive_m`` of it, plus ``settle_s`` to see it stop. Cross-track, corner and completion figures are
+``arrive_m`` of it, plus ``settle_s`` to see it stop. PX4 switches to Hold (AUTO.LOITER) by itself once its mission
+is finished: from the last item's report on, that mode is no take-over. Cross-track, corner and completion figures are
 :func:`ksbo_task.manoeuvre_metrics.mission_tracking` of the position samples against the straight legs.
 """
 
@@ -67,9 +68,12 @@ def fly_auto_mission(frame: ManoeuvreFrame, spec: ManoeuvreSpec, start: np.ndarr
             return last in reached or (current[0] == last and here is not None
                                        and float(np.linalg.norm(here - wps[-1])) <= spec.arrive_m)
 
-        if not frame.watch(spec.timeout_s, "auto", arrived):
+        def finished_modes() -> set[int]:
+            return {v.stack.modes["hold"]} if last in reached else set()
+
+        if not frame.watch(spec.timeout_s, "auto", arrived, finished_modes):
             raise VehicleError(f"the mission did not complete within {spec.timeout_s:g} s of vehicle time")
-        frame.watch(spec.settle_s, "auto")
+        frame.watch(spec.settle_s, "auto", also=finished_modes)
     finally:
         v.link.handlers.remove(on_msg)
     frame.marker(end_text(frame.now_ms(), "ok"))
