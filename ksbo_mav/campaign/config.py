@@ -49,6 +49,7 @@ class CampaignConfig:
     accept: bool = _default("accept")
     end: str = _default("end")
     onboard_guard: bool = _default("onboard_guard")
+    trial_source: str = _default("trial_source")
     settle_s: float = _default("settle_s")
     sysid: int | None = _default("sysid")
     compid: int | None = _default("compid")

@@ -112,7 +112,8 @@ class Campaign:
             link = self._preflight(v)
             self._record(v, link)
             # After the snapshot (it holds MAV_GCS_SYSID as found), before the first trial.
-            install_guard(v, self.cfg.onboard_guard, self.base, self.cfg.safety, self.log)
+            install_guard(v, self.cfg.onboard_guard, self.base, self.cfg.safety, self.log,
+                          on_board=self.cfg.trial_source == "onboard")
             return self._fly(v)
         except (KeyboardInterrupt, KsboError) as exc:
             self._stop(v, exc)

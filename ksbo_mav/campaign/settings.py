@@ -18,6 +18,8 @@ from ksbo_mav.opt.constraints import BOOL, Choice, Interval
 PRIOR_KINDS = ("auto", "sim", "local", "none")
 END_MODES = ("land", "hold")
 DRIFT_ACTIONS = ("stop", "continue")
+#: Where a trial's figure-8 comes from: the onboard guard's script, or the tuner's setpoint stream.
+TRIAL_SOURCES = ("onboard", "ground")
 #: Validation flights after the tune (ksbo_mav.campaign.validation): none, the profile's repeats, or its full set.
 VALIDATION_MODES = ("off", "quick", "full")
 #: Mission rates (Hz) a campaign may fly at: setpoints carry feed-forward, so the autopilot fills in between them.
@@ -128,6 +130,9 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("onboard_guard", BOOL, True, "--onboard-guard",
             "install the onboard guard (ArduPilot Lua) that restores the baseline on a lost link; "
             "--no-onboard-guard flies without it"),
+    Setting("trial_source", Choice(TRIAL_SOURCES), "onboard", "--trial-source",
+            "where a trial's figure-8 comes from: onboard, the onboard guard flies it (ArduPilot with the guard, "
+            "else streamed); ground, the tuner streams it (docs/links.md)"),
     Setting("settle_s", Interval(0.0), 1.0, None, "seconds of hover at the start point before a trial's figure-8"),
     Setting("sysid", Unset(_whole(1, 255)), None, "--sysid", "our MAVLink system id (unset: 245)"),
     Setting("compid", Unset(_whole(1, 255)), None, "--compid", "our MAVLink component id (unset: 191)"),

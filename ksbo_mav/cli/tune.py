@@ -74,6 +74,7 @@ def add_parser(subparsers) -> None:
     g.add_argument("--widen", action="store_const", const=True,
                    help=_help("widen", " (as the profile's [trust_region] widen = true)"))
     g = p.add_argument_group(GROUPS[5])
+    g.add_argument("--trial-source", dest="trial_source", metavar="{onboard,ground}", help=_help("trial_source"))
     g.add_argument("--rate", dest="rate_hz", type=int, metavar="HZ", help=_help("rate_hz", "; 50, 25, 20 or 10 "
                                                                                        "(docs/links.md)"))
     g.add_argument("--baseline-every", type=int, metavar="N", help=_help("baseline_every"))
@@ -138,6 +139,8 @@ def config_from_args(args: argparse.Namespace):
     from ksbo_mav.campaign.settings import check_setting
 
     given: dict[str, Any] = {k: getattr(args, k) for k in _DEFINING if getattr(args, k) is not None}
+    if args.trial_source is not None:  # defines the campaign too: its scores are measured that way
+        given["trial_source"] = args.trial_source
     if getattr(args, "option", None):
         given["options"] = dict(option_arg(o) for o in args.option)  # they define the campaign too
     # --end has a default, so it is always given; --accept only turns accepting on.

@@ -18,8 +18,11 @@ def plot_conditions(rec: CampaignRecord, path: Path) -> str | None:
     base = [r for r in rec.rows if r.role in ("baseline", "baseline re-flight") and r.entry.outcome == "ok"]
     cond = [r for r in rec.rows if r.entry.cond]
     wind = [(r.trial, r.entry.cond["wind_mps"]) for r in cond if r.entry.cond.get("wind_mps") is not None]
-    # A vehicle that does not estimate the wind streams a zero: said, never drawn as a measurement.
+    # A vehicle that does not estimate the wind streams a zero: said, never drawn as a measurement; what the
+    # flights' own telemetry tells is drawn apart, labelled as inferred.
     unestimated = any(r.entry.cond.get("wind_estimated") is False for r in cond)
+    inferred = [(r.trial, r.entry.cond["wind_inferred_mps"]) for r in cond
+                if r.entry.cond.get("wind_inferred_mps") is not None]
     volt = [(r.trial, r.entry.cond["voltage_v"]) for r in cond if r.entry.cond.get("voltage_v") is not None]
     if len(base) < 2 and not wind and not volt and not unestimated:
         return None
@@ -32,11 +35,16 @@ def plot_conditions(rec: CampaignRecord, path: Path) -> str | None:
     axes[0].set_title("The baseline gains re-flown, and the conditions, over the campaign")
     for ax, pts, label, unit in ((axes[1], wind, "wind (autopilot estimate)", "m/s"),
                                  (axes[2], volt, "battery voltage", "V")):
+        if ax is axes[1] and inferred:
+            ax.plot([t for t, _ in inferred], [v for _, v in inferred], "x", color="C2",
+                    label="wind inferred (lean angle against ground velocity)")
         if pts:
             ax.plot([t for t, _ in pts], [v for _, v in pts], ".", color="C1", label=label)
         elif ax is axes[1] and unestimated:
-            ax.text(0.5, 0.5, "wind: not estimated by the vehicle (no drag fusion or airspeed sensor)",
-                    transform=ax.transAxes, ha="center", color="0.4")
+            ax.text(0.5, 0.3 if inferred else 0.5, "wind: not estimated by the vehicle (no drag fusion or "
+                    "airspeed sensor)", transform=ax.transAxes, ha="center", color="0.4")
+        if ax is axes[1] and (pts or inferred):
+            ax.set_ylim(bottom=0.0, top=1.15 * max(v for _, v in [*pts, *inferred]) + 0.1)
         else:
             ax.text(0.5, 0.5, f"no {label} from the vehicle", transform=ax.transAxes, ha="center", color="0.4")
         ax.set_ylabel(unit)
@@ -51,6 +59,29 @@ def plot_conditions(rec: CampaignRecord, path: Path) -> str | None:
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return str(path)
+
+
+def wind_summary(rec: CampaignRecord) -> str | None:
+    """The verdict box's wind line: the vehicle's estimate, or "not estimated by the vehicle" and the wind
+    inferred from the trials' telemetry (range over the trials, labelled as inferred); None without a record."""
+    cond = [r.entry.cond for r in rec.rows if r.entry.cond]
+    if not cond:
+        return None
+    est = [c["wind_mps"] for c in cond if c.get("wind_mps") is not None]
+    inf = [(c["wind_inferred_mps"], c.get("wind_inferred_from_deg")) for c in cond
+           if c.get("wind_inferred_mps") is not None]
+    if est:
+        return f"{min(est):.1f}–{max(est):.1f} m/s (the vehicle's estimate, mean per trial)"
+    if not any(c.get("wind_estimated") is False for c in cond):
+        return None
+    text = "not estimated by the vehicle (no drag fusion or airspeed sensor: the wind it streams reads 0)"
+    if inf:
+        speeds = [s for s, _ in inf]
+        dirs = [d for _, d in inf if d is not None]
+        frm = f" from {np.median(dirs):.0f}°" if dirs else ""
+        text += (f"; inferred {min(speeds):.1f}–{max(speeds):.1f} m/s{frm} over {len(inf)} trial(s), from the lean "
+                 "angle against the ground velocity (a drag-model fit; docs/report.md)")
+    return text
 
 
 def same_condition(rec: CampaignRecord) -> str | None:

@@ -136,6 +136,8 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
                                                    "did not fit the link" if fig.reduced_from_hz else ""))))
         if result["link"].get("on_link_loss"):
             rows.append(("If the link dies", esc(result["link"]["on_link_loss"])))
+    if result and result.get("wind"):
+        rows.append(("Wind", esc(result["wind"])))
     if result and result.get("validation_lines"):
         rows.append(("Validation", "<br/>".join(esc(line) for line in result["validation_lines"])))
     if result and result.get("drift"):

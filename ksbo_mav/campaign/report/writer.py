@@ -112,7 +112,7 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     profile (default: the one the campaign names), for the profile's own gain limits.
     """
     from ksbo_mav.campaign.drift import load_drift
-    from ksbo_mav.campaign.report.conditions import plot_conditions, same_condition
+    from ksbo_mav.campaign.report.conditions import plot_conditions, same_condition, wind_summary
     from ksbo_mav.campaign.report.page import write_page
     from ksbo_mav.campaign.report.validation_table import validation_section, verdict_lines
     from ksbo_mav.campaign.validation_log import ValidationJournal
@@ -141,6 +141,9 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     paths["safety"] = plot_safety(rec, d.report_plot("safety")) or "none"
     paths["conditions"] = plot_conditions(rec, d.report_plot("conditions")) or "none"
     drift, same = load_drift(d), same_condition(rec)
+    wind = wind_summary(rec)
+    if wind:
+        result = {**(result or {}), "wind": wind}
     flown = ValidationJournal(d.validation_journal).entries
     if flown:
         result = {**(result or {}), "validation_lines": verdict_lines(flown),
