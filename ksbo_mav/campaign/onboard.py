@@ -6,6 +6,10 @@ campaign stops before flying, naming what to set; flown without it (``--no-onboa
 that leaves, and the settings, hence the report, record it. PX4 runs no scripts: there is no guard to
 install, and the console says so; its own link-loss failsafe (checked by :mod:`ksbo_mav.campaign.link_loss_policy`) is
 the backstop.
+
+With ``trial_source`` onboard the guard is rendered with the campaign's figure-8 and flies every trial's figure-8
+itself (:mod:`ksbo_mav.mav.onboard_trial`); without a guard, or on the planar task's figure-8, the tuner streams
+it as before, and says so.
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from ksbo_mav.errors import KsboError
-from ksbo_mav.mav.guard_script import config_for, new_config_id
+from ksbo_mav.mav.guard_script import config_for, figure8_for, new_config_id
 from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.mav.onboard_guard import GCS_SYSID_PARAMS, GuardUnavailable, OnboardGuard
 from ksbo_mav.mav.vehicle import Vehicle
@@ -22,23 +26,42 @@ WITHOUT = ("flying WITHOUT the onboard guard (--no-onboard-guard): if the link i
            "the trial gains keep flying until it comes back")
 
 
+#: The guard trips on board at this multiple of the profile's tracking-error limit: the tuner's monitor (same
+#: limit as ever) acts first where the telemetry reaches it; the guard's margin is for a link too thin to.
+TRACK_MARGIN = 1.5
+STREAMED = "trials: the figure-8 streamed from the ground"
+
+
 def install_guard(v: Vehicle, wanted: bool, base: dict[str, float], safety: dict[str, float],
-                  log: Callable[[str], None]) -> None:
+                  log: Callable[[str], None], on_board: bool = False) -> None:
     """Install the guard of the baseline ``base`` and the monitor's limits (``safety`` overrides applied) as
-    ``v.guard``; :class:`GuardUnavailable` (one line) when it cannot run and was not waived."""
+    ``v.guard``, flying the figure-8 itself when ``on_board``; :class:`GuardUnavailable` (one line) when it cannot
+    run and was not waived."""
     if not wanted:
         log(f"warning: {WITHOUT}")
+        if on_board:
+            log(f"{STREAMED} (flying it on board needs the onboard guard)")
         return
     if v.stack.name == "px4":
         log("onboard guard: PX4 runs no scripts; its link-loss failsafe is the backstop")
+        if on_board:
+            log(f"{STREAMED} (PX4 runs no scripts)")
         return
+    limits = limits_from_profile(v.profile, safety)
+    figure8 = None
+    if on_board and v.mission.kind != "figure8-ne":
+        log(f"{STREAMED} (only the 3-D figure-8 is flown on board, not {v.mission.kind})")
+    elif on_board:
+        figure8 = figure8_for(v.mission, TRACK_MARGIN * limits.tracking_error_max)
     guard = OnboardGuard(v.link, v.params, v.cmd, log)
     try:
-        guard.install(config_for(limits_from_profile(v.profile, safety), guard_link_timeout(v, log), base,
-                                 new_config_id()))
+        guard.install(config_for(limits, guard_link_timeout(v, log), base, new_config_id(), figure8=figure8))
     except GuardUnavailable as exc:
         raise GuardUnavailable(f"{exc} [to fly without it: --no-onboard-guard]") from None
     v.guard = guard
+    if figure8 is not None:
+        log(f"trials: the figure-8 flown on board by the onboard guard (a target every {figure8.tick_ms} ms; the "
+            "link carries the start, the gains and the telemetry to score)")
 
 
 def guard_link_timeout(v: Vehicle, log: Callable[[str], None]) -> float:

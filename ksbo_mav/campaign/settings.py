@@ -131,8 +131,7 @@ SETTINGS: tuple[Setting, ...] = (
             "install the onboard guard (ArduPilot Lua) that restores the baseline on a lost link; "
             "--no-onboard-guard flies without it"),
     Setting("trial_source", Choice(TRIAL_SOURCES), "onboard", "--trial-source",
-            "where a trial's figure-8 comes from: onboard, the onboard guard flies it (ArduPilot with the guard, "
-            "else streamed); ground, the tuner streams it (docs/links.md)"),
+            "the figure-8 flown by the onboard guard (ArduPilot) or streamed by the tuner"),
     Setting("settle_s", Interval(0.0), 1.0, None, "seconds of hover at the start point before a trial's figure-8"),
     Setting("sysid", Unset(_whole(1, 255)), None, "--sysid", "our MAVLink system id (unset: 245)"),
     Setting("compid", Unset(_whole(1, 255)), None, "--compid", "our MAVLink component id (unset: 191)"),

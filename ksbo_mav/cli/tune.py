@@ -74,7 +74,8 @@ def add_parser(subparsers) -> None:
     g.add_argument("--widen", action="store_const", const=True,
                    help=_help("widen", " (as the profile's [trust_region] widen = true)"))
     g = p.add_argument_group(GROUPS[5])
-    g.add_argument("--trial-source", dest="trial_source", metavar="{onboard,ground}", help=_help("trial_source"))
+    g.add_argument("--trial-source", dest="trial_source", metavar="{onboard,ground}",
+                   help=_help("trial_source"))
     g.add_argument("--rate", dest="rate_hz", type=int, metavar="HZ", help=_help("rate_hz", "; 50, 25, 20 or 10 "
                                                                                        "(docs/links.md)"))
     g.add_argument("--baseline-every", type=int, metavar="N", help=_help("baseline_every"))
