@@ -47,11 +47,13 @@ class PilotTookOver(VehicleError):
 
 class TrialStopped(VehicleError):
     """A trial was aborted for a reason that must stop the campaign (pilot, link, crash of a real vehicle);
-    ``flight`` is its recorded result (a :class:`ksbo_task.flight.Flight`)."""
+    ``flight`` is its recorded result (a :class:`ksbo_task.flight.Flight`). ``retry``: not the gains' doing and the
+    vehicle is ready again (this computer fell behind, the link came back): the trial may be flown again instead."""
 
-    def __init__(self, message: str, flight: Any) -> None:
+    def __init__(self, message: str, flight: Any, retry: bool = False) -> None:
         super().__init__(message)
         self.flight = flight
+        self.retry = retry
 
 
 class TrialInterrupted(KeyboardInterrupt):

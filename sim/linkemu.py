@@ -11,7 +11,9 @@ Ground side: ``udp:HOST:PORT`` (send to a ground station listening there: ``ksbo
 ``udpin:HOST:PORT`` (bind; the ground station sends first: ``--udpout``). Port 0 binds a free port.
 
 It prints one ready line, ``ksbo-linkemu ready vehicle:PORT ground:PORT``, then forwards until killed; on SIGTERM
-it prints the counters of both directions as one JSON line (``ksbo-linkemu stats {...}``).
+it prints the counters of both directions as one JSON line (``ksbo-linkemu stats {...}``). SIGUSR1 cuts the link
+(every frame either way, and those already on their way, is dropped: a radio out of range) until SIGUSR2; the
+frames a cut dropped are counted as ``cut``.
 """
 
 from __future__ import annotations
@@ -106,10 +108,10 @@ class Side:
             pass  # nobody listening yet on the other end: the frame is lost, as over the air
 
 
-def _stats(down: Pipe, up: Pipe) -> str:
-    def d(p: Pipe) -> dict[str, int]:
-        return {"frames": p.sent, "bytes": p.sent_bytes, "dropped": p.dropped, "lost": p.lost}
-    return json.dumps({"down": d(down), "up": d(up)})
+def _stats(down: Pipe, up: Pipe, cut: dict[str, int]) -> str:
+    def d(p: Pipe, name: str) -> dict[str, int]:
+        return {"frames": p.sent, "bytes": p.sent_bytes, "dropped": p.dropped, "lost": p.lost, "cut": cut[name]}
+    return json.dumps({"down": d(down, "down"), "up": d(up, "up")})
 
 
 class GroundRadio:
@@ -133,10 +135,15 @@ class GroundRadio:
         return frame
 
 
-def run(vehicle: Side, ground: Side, shape: LinkShape, stop: list[bool]) -> tuple[Pipe, Pipe]:
-    """Forward frames between the sides through the shaped pipes until ``stop[0]``."""
+def run(vehicle: Side, ground: Side, shape: LinkShape, stop: list[bool], cut: list[bool] | None = None,
+        cut_frames: dict[str, int] | None = None) -> tuple[Pipe, Pipe]:
+    """Forward frames between the sides through the shaped pipes until ``stop[0]``; while ``cut[0]`` every frame is
+    dropped (counted in ``cut_frames``)."""
     down, up = pipes(shape)
+    cut = cut if cut is not None else [False]
+    cut_frames = cut_frames if cut_frames is not None else {"down": 0, "up": 0}
     socks = {vehicle.sock: (vehicle, down), ground.sock: (ground, up)}
+    names = {id(down): "down", id(up): "up"}
     radio = GroundRadio() if shape.radio else None
     while not stop[0]:
         now = time.monotonic()
@@ -150,11 +157,20 @@ def run(vehicle: Side, ground: Side, shape: LinkShape, stop: list[bool]) -> tupl
         for s in readable:
             _, pipe = socks[s]
             for frame in socks[s][0].receive():
-                pipe.push(frame, now)
+                if cut[0]:
+                    cut_frames[names[id(pipe)]] += 1
+                else:
+                    pipe.push(frame, now)
         for frame in down.due(now):
-            ground.send(frame)
+            if cut[0]:
+                cut_frames["down"] += 1
+            else:
+                ground.send(frame)
         for frame in up.due(now):
-            vehicle.send(frame)
+            if cut[0]:
+                cut_frames["up"] += 1
+            else:
+                vehicle.send(frame)
     return down, up
 
 
@@ -172,16 +188,18 @@ def main(argv: list[str] | None = None) -> int:
     except (SimInputError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    stop = [False]
+    stop, cut, cut_frames = [False], [False], {"down": 0, "up": 0}
     signal.signal(signal.SIGTERM, lambda *_: stop.__setitem__(0, True))
     signal.signal(signal.SIGINT, lambda *_: stop.__setitem__(0, True))
+    signal.signal(signal.SIGUSR1, lambda *_: cut.__setitem__(0, True))
+    signal.signal(signal.SIGUSR2, lambda *_: cut.__setitem__(0, False))
     print(f"ksbo-linkemu ready vehicle:{vehicle.port} ground:{ground.port} {shape.describe()}", flush=True)
     try:
-        down, up = run(vehicle, ground, shape, stop)
+        down, up = run(vehicle, ground, shape, stop, cut, cut_frames)
     except ConnectionError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
-    print(f"ksbo-linkemu stats {_stats(down, up)}", flush=True)
+    print(f"ksbo-linkemu stats {_stats(down, up, cut_frames)}", flush=True)
     return 0
 
 

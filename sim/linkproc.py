@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import select
+import signal
 import subprocess
 import sys
 
@@ -28,6 +29,14 @@ class LinkEmulator:
         words = dict(w.split(":", 1) for w in line.split()[2:4])
         self.vehicle_port, self.ground_port = int(words["vehicle"]), int(words["ground"])
         self.ready_line = line.strip()
+
+    def cut(self) -> None:
+        """Cut the link: from now on every frame either way is dropped (SIGUSR1), until :meth:`reconnect`."""
+        self.proc.send_signal(signal.SIGUSR1)
+
+    def reconnect(self) -> None:
+        """End a :meth:`cut` (SIGUSR2): frames pass again."""
+        self.proc.send_signal(signal.SIGUSR2)
 
     def stop(self, timeout: float = 5.0) -> dict:
         if self.proc.poll() is None:

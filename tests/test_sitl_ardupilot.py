@@ -106,6 +106,79 @@ def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
     assert not armed and not param_diff(d, now)
 
 
+def _throttle(sitl, pwm: int) -> None:
+    """SITL's RC input (UDP 5501+10N, 16 PWM values): sticks centred, the throttle at ``pwm``."""
+    import socket
+    import struct
+
+    values = [1500, 1500, pwm, 1500, 1800, 1000, 1000, 1800] + [0] * 8
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        for _ in range(3):
+            s.sendto(struct.pack("<16H", *values), ("127.0.0.1", 5501 + 10 * sitl.instance))
+
+
+def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ardupilot_sitl, tmp_path):
+    """The tuner's link through the link emulator, cut (every frame both ways) 1.5 s of wall time into the first
+    optimiser trial for 8 s: on board, read on a second connection the tuner does not use, the guard puts the
+    baseline back and brakes; once the link is back the tuner reads what happened there, records the trial as
+    interrupted (not given to the optimiser), verifies the baseline, takes the vehicle back and flies the same
+    gains again; the report shows the event and every parameter ends as the snapshot had it."""
+    from guard_helpers import Observer
+
+    from ksbo_sim.linkproc import LinkEmulator
+    from ksbo_sim.process import free_udp_port
+
+    gport, d = free_udp_port(), tmp_path / "cut"
+    emu = LinkEmulator(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_port}", f"udp:127.0.0.1:{gport}")
+    obs = Observer(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_ports[1]}")
+    proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp", f"127.0.0.1:{gport}",
+                             "--prior", "none", "--budget", "2", "--confirm", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        deadline = time.monotonic() + 300
+        while not (d / "trials" / "trial_001.tlog").exists():
+            assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read()[-3000:]
+            obs.pump(0.1)
+        baseline = json.loads((d / "trials" / "trial_000.json").read_text())["vehicle_values"]
+        assert obs.until(lambda: {n: obs.param(n) for n in baseline} != pytest.approx(baseline, rel=1e-6), 60.0), \
+            "the trial gains never came"
+        # airborne: a pilot's transmitter at mid-stick (SITL's own throttle is at 1000, which LOITER would land on)
+        _throttle(ardupilot_sitl, 1500)
+        obs.pump(1.5)  # into the trial, its gains flying
+        cut_ms, cut_wall = obs.vehicle_ms, time.monotonic()
+        emu.cut()
+        assert obs.until(lambda: obs.first_alive(2, cut_ms) is not None, 20.0), obs.texts  # 2: tripped
+        tripped_ms, tripped_wall = obs.first_alive(2, cut_ms), time.monotonic()
+        on_board = {n: obs.param(n) for n in baseline}  # read while the tuner is still cut off
+        obs.pump(max(0.0, 8.0 - (time.monotonic() - cut_wall)))
+        emu.reconnect()
+        out = proc.communicate(timeout=300)[0]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        obs.close()
+        emu.stop()
+        _throttle(ardupilot_sitl, 1000)
+    print(f"link cut at vehicle {cut_ms} ms; the guard tripped at {tripped_ms} ms ({tripped_ms - cut_ms} ms of "
+          f"vehicle time, {tripped_wall - cut_wall:.1f} s of wall time); link back after 8 s of wall time")
+    assert on_board == pytest.approx(baseline, rel=1e-6)  # put back on board before the link returned
+    assert proc.returncode == 0, out[-4000:]
+    assert "link back after" in out and "the onboard guard had acted (tuner link lost" in out, out[-4000:]
+    entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
+    cut = [e for e in entries if e["kind"] == "failed" and e["outcome"] == "link"]
+    assert len(cut) == 1, entries
+    # (a busy machine may spoil a trial too: "client", flown again the same way)
+    assert all(e["outcome"] in ("link", "client", "telemetry") for e in entries if e["kind"] == "failed")
+    # the same gains flown again next, counted for the optimiser; the interrupted flight never was
+    after = next(e for e in entries[entries.index(cut[0]) + 1:] if e["kind"] != "failed")
+    assert after["kind"] == "opt" and after["x"] == cut[0]["x"] and after["outcome"] == "ok", entries
+    message = json.loads((d / "trials" / f"trial_{cut[0]['trial']:03d}.json").read_text())["message"]
+    assert "baseline's gains set; baseline restored and verified; taken back from" in message, message
+    assert "link back after" in (d / "report" / "index.html").read_text()
+    now, armed = read_all(ardupilot_sitl, PROFILE)
+    assert not armed and not param_diff(d, now)
+
+
 def test_arming_refused_is_one_clear_line_and_nothing_recorded(tmp_path):
     # A vehicle that will not arm (battery below its minimum arming voltage): the tool retries for 90 s of vehicle
     # time while the vehicle says why, then stops with that reason on one line; no trial is recorded and nothing

@@ -60,6 +60,23 @@ def test_without_the_key_one_line_names_the_key_options(signed_sitl, tmp_path):
     assert not (tmp_path / "c").exists()
 
 
+def test_a_wrong_key_is_named_in_one_line(signed_sitl, tmp_path):
+    """A key file holding another passphrase: one line says the frames are signed with another key (not a silent
+    vehicle, not an unanswered request), and the wrong key is not printed either."""
+    sitl, _ = signed_sitl
+    wrong = tmp_path / "other.key"
+    wrong.write_text("not the vehicle's passphrase\n")
+    r = tool("tune", str(tmp_path / "c"), *_port_args(sitl), "--dry-run", "--signing-key", str(wrong))
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode != 0 and "Traceback" not in r.stderr, r.stderr[-2000:]
+    assert lines[-1].startswith("error: ") and "signed with another key than the one from" in lines[-1], lines[-1]
+    assert str(wrong) in lines[-1] and "wrong signing key" in lines[-1]
+    assert "no vehicle heartbeat" not in r.stderr and "did not answer" not in r.stderr
+    other = hashlib.sha256(b"not the vehicle's passphrase").digest()
+    assert not any(s in (r.stdout + r.stderr).encode() for s in (other, other.hex().encode(), b"not the vehicle"))
+    assert not (tmp_path / "c").exists()
+
+
 def _signed_frames_from_us(tlog) -> tuple[int, int]:
     """(frames the tool sent, of them signed) in a trial's tlog."""
     log = mavutil.mavlink_connection(str(tlog), dialect="ardupilotmega")

@@ -56,8 +56,7 @@ class TrialLoop:
             try:
                 return self._fly_once(x, kind, stress)
             except TrialStopped as exc:
-                outcome = exc.flight.outcome
-                if not outcome.retry or attempt == RETRIES:
+                if not exc.retry or attempt == RETRIES:
                     raise
                 self.log(f"trial {exc.flight.meta['trial']} not counted ({exc.flight.meta['message']}); "
                          "flying it again")

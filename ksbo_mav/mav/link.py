@@ -27,6 +27,9 @@ DEFAULT_SYSID = 245
 DEFAULT_COMPID = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER
 
 MAV_TYPE_GCS = 6
+#: Signed frames that fail our key's check, none passing, before a wait for the vehicle gives up: a vehicle sends
+#: several a second, and a key that verifies none of them never will.
+WRONG_KEY_FRAMES = 10
 MAV_AUTOPILOT_INVALID = 8
 
 Handler = Callable[[Any], None]
@@ -272,11 +275,20 @@ class Link:
             self.pump(0.1)
             if self.last_heartbeat_wall > before:
                 return self.last_heartbeat
-        if self.endpoint.signing is not None and self.mav.signing.badsig_count:  # signed, but not with our key
+            if self._wrong_key(WRONG_KEY_FRAMES):  # no need to wait out the timeout: nothing will ever verify
+                break
+        if self._wrong_key(1):  # signed, but not with our key
+            sig = self.mav.signing
             raise VehicleError(f"the vehicle's frames on {self.endpoint} are signed with another key than the one "
-                               f"from {self.endpoint.signing.source}: wrong signing key")
+                               f"from {self.endpoint.signing.source}: wrong signing key ({sig.badsig_count} frames "
+                               f"failed the signature check, {sig.goodsig_count} passed)")
         raise VehicleError(f"no vehicle heartbeat on {self.endpoint} within {timeout:g} s "
                            "(is the vehicle running and sending to this address?)")
+
+    def _wrong_key(self, frames: int) -> bool:
+        """At least ``frames`` signed frames failed our key's check and none passed it."""
+        sig = self.mav.signing
+        return self.endpoint.signing is not None and sig.badsig_count >= frames and not sig.goodsig_count
 
     def heartbeat_age(self) -> float:
         return time.monotonic() - self.last_heartbeat_wall if self.last_heartbeat_wall else float("inf")

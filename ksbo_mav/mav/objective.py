@@ -111,6 +111,8 @@ class MavlinkObjective:
                                "restored - run `ksbo-mav restore` with the snapshot as soon as the vehicle is "
                                "reachable", flight)
         if not outcome.continues or (outcome is T.CRASH and not v.is_sim):
+            # A lost link that came back, the baseline verified and the vehicle in GUIDED again: fly it again.
             raise TrialStopped(f"trial {i} aborted ({outcome.text}): {scored.message}; "
-                               "baseline gains restored and verified", flight)
+                               "baseline gains restored and verified", flight,
+                               retry=outcome.retry or (outcome is T.LINK and flown.link_back))
         return flight

@@ -91,8 +91,12 @@ class OnboardGuard:
     def last_text(self) -> str:
         return self.texts[-1] if self.texts else ""
 
+    def trip_code(self) -> int:
+        """``KSG_TRIP`` read fresh from the vehicle (:data:`TRIP_REASONS`)."""
+        return int(self._read(TRIP_PARAM))
+
     def trip_reason(self) -> str:
-        return TRIP_REASONS.get(int(self._read(TRIP_PARAM)), "unknown")
+        return TRIP_REASONS.get(self.trip_code(), "unknown")
 
     def _beat(self, msg: Any) -> None:
         """A heartbeat every sixth of the link timeout of *vehicle* time while a guard is installed: the guard counts

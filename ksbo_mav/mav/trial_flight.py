@@ -27,7 +27,7 @@ from ksbo_mav.mav.monitor import Monitor
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.errors import VerifyError
 from ksbo_mav.mav.tlog import TlogWriter
-from ksbo_mav.mav import onboard_trial
+from ksbo_mav.mav import link_return, onboard_trial
 from ksbo_mav.mav.trajectory import TrialRecorder, after_text, board_text, end_text, ref_text, start_text
 from ksbo_mav.mav.vehicle import Vehicle
 
@@ -67,6 +67,8 @@ class FlownTrial:
         restored: the baseline parameters are back on the vehicle, verified by a fresh read.
         link: :class:`LinkStats`.
         interrupted: the Ctrl-C that ended the trial (re-raised once the trial is recorded), else None.
+        link_back: after a lost link, the link came back, the baseline is restored and the vehicle is armed in
+            GUIDED again (left so by the guard, or taken back from its BRAKE/LOITER): the campaign may go on.
     """
 
     recorder: TrialRecorder
@@ -76,6 +78,7 @@ class FlownTrial:
     restored: bool
     link: LinkStats
     interrupted: KeyboardInterrupt | None = None
+    link_back: bool = False
 
 
 class TrialFlight:
@@ -109,6 +112,8 @@ class TrialFlight:
         reasserts0 = v.telemetry.reasserts
         lag: list[float] = []
         outcome, message, L, stop = T.OK, "", 0, None
+        self._returned: link_return.LinkReturn | None = None
+        back = False
         try:
             try:
                 L = self._run(x, approach, rms_ref, lag)
@@ -126,9 +131,9 @@ class TrialFlight:
             # The guard's watch ends before our own recovery (it must not fight it); after a lost link, once the
             # link is back (the restore waits for it).
             guard_note = self._disarm_guard() if outcome is not T.LINK else ""
-            restored, late = self._finish(rec, outcome, L)
+            restored, late = self._finish(rec, outcome, L, v.gain_map.to_params(x))
             if outcome is T.LINK:
-                guard_note = self._disarm_guard()
+                guard_note, back = self._after_link(restored)
             if late is not None:  # the vehicle crashed right after the trial, as the baseline took over
                 outcome, message = late
             if guard_note:
@@ -138,7 +143,27 @@ class TrialFlight:
             link.tlog.close()
             link.tlog = None
         stats = LinkStats(lost_packets=rec.lost, rate_reasserts=v.telemetry.reasserts - reasserts0, lag_ms=tuple(lag))
-        return FlownTrial(rec, outcome, message, L, restored, stats, stop)
+        return FlownTrial(rec, outcome, message, L, restored, stats, stop, back)
+
+    def _after_link(self, restored: bool) -> tuple[str, bool]:
+        """Once the link is back and the baseline restored: end the guard's watch, take the vehicle back from what
+        the guard did for the lost link, and say what happened on the vehicle. Returns (the trial's note, whether
+        the campaign may go on)."""
+        found = self._returned
+        note = self._disarm_guard()
+        if found is None:  # the link did not come back in time
+            return note, False
+        note = found.text() + ("; baseline restored and verified" if restored else "")
+        back = False
+        if restored:
+            try:
+                took = link_return.take_back(self.vehicle, found)
+                back = self.vehicle.guided.armed and self.vehicle.guided.in_mode("guided")
+            except KsboError as exc:
+                took = f"not taken back: {exc}"
+            note += f"; {took}" if took else ""
+        self.log(note)
+        return note, back
 
     def _disarm_guard(self) -> str:
         """End the onboard guard's watch; what it did, when it acted, for the trial's message."""
@@ -208,7 +233,8 @@ class TrialFlight:
         g.hold_at(end)  # end on a position-only target (no dead reckoning)
         return n
 
-    def _finish(self, rec: TrialRecorder, outcome: T, L: int) -> tuple[bool, tuple[T, str] | None]:
+    def _finish(self, rec: TrialRecorder, outcome: T, L: int,
+                trial_params: dict[str, float]) -> tuple[bool, tuple[T, str] | None]:
         """End marker, hold (when it is ours to command), restore the baseline with verification, park.
 
         Returns whether the baseline was restored, and for a trial that completed but left the vehicle in a state
@@ -219,9 +245,13 @@ class TrialFlight:
         restored = False
         try:
             if outcome is T.LINK:
+                heard = time.monotonic() - v.link.heartbeat_age()
                 deadline = time.monotonic() + self.link_wait_s
                 while v.link.heartbeat_age() > v.heartbeat_timeout and time.monotonic() < deadline:
                     v.link.pump(0.2)
+                if v.link.heartbeat_age() <= v.heartbeat_timeout:  # back: what happened there, before any write
+                    self._returned = link_return.survey(v, time.monotonic() - v.link.heartbeat_age() - heard,
+                                                        trial_params, self.baseline_params)
             if rec.t0 is not None:
                 v.statustext(end_text(self.mission.tag, L, outcome))
             ours = outcome not in (T.PILOT, T.CRASH, T.LINK, T.FAILSAFE) and g.armed  # never override a failsafe

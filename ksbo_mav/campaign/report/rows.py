@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -22,12 +23,14 @@ SAFETY = ("unsafe (P < 0)", "aborted by the monitor", "crashed", "interrupted (n
 @dataclass(frozen=True)
 class TrialRow:
     """One flown trial. ``values``: gains in the vehicle's units, by vehicle parameter name; ``rms``: lap-2 RMS
-    position error (m) of a completed trial, else None."""
+    position error (m) of a completed trial, else None; ``note``: for an interrupted trial, what happened (its
+    record's message: e.g. what the vehicle and the onboard guard did while the link was down)."""
 
     entry: JournalEntry
     role: str
     values: dict[str, float]
     rms: float | None
+    note: str = ""
 
     @property
     def trial(self) -> int:
@@ -55,7 +58,7 @@ class TrialRow:
         """completed / aborted by the monitor / crashed / interrupted / ended early, with the outcome's text."""
         o = self.entry.outcome
         if self.kind == "failed":
-            return f"interrupted ({o.text}; not the gains)"
+            return f"interrupted ({o.text}; not the gains)" + (f": {self.note}" if self.note else "")
         if o == "ok":
             return "completed" + ("; P < 0" if self.P < 0 else "")
         if o == "crash":
@@ -110,8 +113,18 @@ def read_campaign(d: CampaignDir, rms: bool = True) -> CampaignRecord:
         if e.kind == "opt":
             flown.append(e)
         rows.append(TrialRow(e, role, dict(zip(names, (np.asarray(e.x) / scale).tolist())),
-                             _rms(e) if rms else e.rms))
+                             _rms(e) if rms else e.rms, _note(e)))
     return CampaignRecord(settings, rows, names, scale)
+
+
+def _note(e: JournalEntry) -> str:
+    """An interrupted trial's message from its record ("" for the others, or when the record cannot be read)."""
+    if e.kind != "failed":
+        return ""
+    try:
+        return str(json.loads(Path(e.record).read_text(encoding="utf-8")).get("message") or "")
+    except (OSError, ValueError, AttributeError):
+        return ""
 
 
 def _rms(e: JournalEntry) -> float | None:
