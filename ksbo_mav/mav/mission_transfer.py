@@ -2,8 +2,10 @@
 
 Upload: MISSION_COUNT; the vehicle asks for each item with MISSION_REQUEST_INT (older firmware MISSION_REQUEST) and
 gets a MISSION_ITEM_INT; it ends the transfer with MISSION_ACK (type 0 accepted). Download: MISSION_REQUEST_LIST ->
-MISSION_COUNT, then MISSION_REQUEST_INT per item -> MISSION_ITEM_INT, and our MISSION_ACK. A request or answer lost
-on the link is asked for again (the vehicle re-sends its request on its own timeout too).
+MISSION_COUNT, then MISSION_REQUEST_INT per item -> MISSION_ITEM_INT, and our MISSION_ACK. On a lossy link: a
+download asks again for what did not come; an upload that hears nothing sends its last item again (the vehicle
+answers with the request it wants next; before any request, MISSION_COUNT again), and an upload whose closing ACK
+was lost is confirmed by downloading the mission and comparing it item for item.
 
 ArduPilot keeps its home position as item 0 of the stored mission (it overwrites whatever is uploaded there), so a
 mission for ArduPilot (and for the built-in simulator, which numbers like it) starts with a placeholder home item;
@@ -154,15 +156,23 @@ class MissionTransfer:
             return link.is_vehicle(m) and (m.get_type() in requests or m.get_type() == "MISSION_ACK") \
                 and getattr(m, "mission_type", 0) == 0
 
+        def send_item(seq: int) -> None:
+            link.send(link.mav.mission_item_int_encode(*self._addr(), seq, *astuple(items[seq]), MISSION_TYPE))
+
         link.send(link.mav.mission_count_encode(*self._addr(), n, MISSION_TYPE))
-        silent = 0
+        silent, last = 0, None
         while True:
             msg = link.wait(answer, self.timeout_s)
             if msg is None:
                 silent += 1
                 if silent >= self.attempts:
+                    if last == n - 1 and self._stored_equals(items):  # only the closing ACK was lost
+                        return
                     raise VehicleError(f"mission upload of {n} items: the vehicle stopped asking for items")
-                link.send(link.mav.mission_count_encode(*self._addr(), n, MISSION_TYPE))  # restarts the transfer
+                if last is None:
+                    link.send(link.mav.mission_count_encode(*self._addr(), n, MISSION_TYPE))
+                else:
+                    send_item(last)
                 continue
             silent = 0
             if msg.get_type() == "MISSION_ACK":
@@ -173,7 +183,19 @@ class MissionTransfer:
             seq = int(msg.seq)
             if not 0 <= seq < n:
                 raise VehicleError(f"mission upload: the vehicle asked for item {seq} of {n}")
-            link.send(link.mav.mission_item_int_encode(*self._addr(), seq, *astuple(items[seq]), MISSION_TYPE))
+            send_item(seq)
+            last = seq
+
+    def _stored_equals(self, items: list[MissionItem]) -> bool:
+        """The vehicle's stored mission is ``items`` (home, item 0 on ArduPilot, may differ)."""
+        try:
+            got = self.download()
+        except VehicleError:
+            return False
+
+        def key(i: MissionItem) -> tuple:
+            return (i.frame, i.command, i.x, i.y, round(i.z, 3))
+        return len(got) == len(items) and [key(i) for i in got[1:]] == [key(i) for i in items[1:]]
 
     def clear(self) -> None:
         """MISSION_CLEAR_ALL, acknowledged."""
