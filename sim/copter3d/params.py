@@ -135,13 +135,20 @@ def _px4() -> list[ParamMap]:
 FENCE_NAMES = {"ardupilot": ("FENCE_RADIUS", "FENCE_ALT_MAX"), "px4": ("GF_MAX_HOR_DIST", "GF_MAX_VER_DIST")}
 #: Tilt beyond which the simulator declares a crash (a simulator setting, like ArduPilot SITL's SIM_*).
 TILT_CRASH = "SIM_TILT_CRASH"
+#: The hover thrust fraction each stack reports (ArduPilot learns MOT_THST_HOVER, PX4 MPC_THR_HOVER). On this
+#: simulator it is the airframe's: the vehicle reports what the F450 hovers at, and a value written makes the
+#: airframe hover there (each motor gives as-built hover / value of the thrust commanded), with the position
+#: loop's hover feed-forward set to it, as after an autopilot's hover learning.
+HOVER_NAMES = {"ardupilot": "MOT_THST_HOVER", "px4": "MPC_THR_HOVER"}
 
 
 def _settings(stack: str) -> list[ParamMap]:
     hor, ver = FENCE_NAMES[stack]
     return [_p(hor, 100.0, 10.0, 10000.0, desc="geofence: horizontal distance from home [m] (crash)"),
             _p(ver, 50.0, 5.0, 1000.0, desc="geofence: altitude above home [m] (crash)"),
-            _p(TILT_CRASH, 85.0, 10.0, 180.0, desc="roll or pitch beyond this is a crash [deg]")]
+            _p(TILT_CRASH, 85.0, 10.0, 180.0, desc="roll or pitch beyond this is a crash [deg]"),
+            _p(HOVER_NAMES[stack], 0.22, 0.1, 0.8, desc="hover thrust fraction (the airframe's; set: a lighter or "
+               "heavier airframe)")]
 
 
 #: Personality name -> parameter table (tunable position gains first).

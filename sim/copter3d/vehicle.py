@@ -17,13 +17,14 @@ non-finite state is a crash (``crashed`` > 0, the airframe then stays where it i
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
 from ksbo_sim.copter3d.attitude import AttitudeController
 from ksbo_sim.copter3d.backend import G0, F450Backend
-from ksbo_sim.copter3d.params import FENCE_NAMES, TABLES, TILT_CRASH, build_gains, param_specs
+from ksbo_sim.copter3d.params import FENCE_NAMES, HOVER_NAMES, TABLES, TILT_CRASH, build_gains, param_specs
 from ksbo_sim.copter3d.poscontrol import PositionController
 from ksbo_sim.vehicle import ParamSpec, Setpoint, VehicleState
 
@@ -62,13 +63,18 @@ class Copter3D:
             raise ValueError("ctrl_dt must be a multiple of physics_dt")
         self.backend = F450Backend(dt=physics_dt, rotor_drag=rotor_drag)
         self.af = self.backend.airframe
-        self._specs = param_specs(personality)
+        self._hover_name = HOVER_NAMES["px4" if personality == "px4" else "ardupilot"]
+        as_built = float(self.af.hover_fraction)
+        self._specs = [dataclasses.replace(s, default=as_built) if s.name == self._hover_name else s
+                       for s in param_specs(personality)]
         self._values = {s.name: float(s.default) for s in self._specs}
         pos_g, att_g = build_gains(personality, self._values)
         self.pos_ctrl = PositionController(physics_dt, self.af.hover_fraction, pos_g, z_px4=personality == "px4")
         self.att_ctrl = AttitudeController(self.af, physics_dt, att_g)
         #: Thrust produced per thrust commanded (1 = as built; lower = warm motors, a sagging pack).
         self.authority = 1.0
+        #: The airframe's own thrust per thrust commanded, from the hover parameter (1 = the F450 as built).
+        self.airframe_scale = 1.0
         #: The rotor drag, times as calibrated, and the wind toward north [m/s]: kept over resets, as the
         #: authority is (a JSBSim reset puts its properties back to their initial values).
         self.drag_scale, self.wind_north = 1.0, 0.0
@@ -83,6 +89,11 @@ class Copter3D:
         if name not in self._values:
             raise KeyError(name)
         self._values[name] = float(value)
+        if name == self._hover_name:
+            hover = min(max(float(value), 0.05), 0.95)
+            self.airframe_scale = self.af.hover_fraction / hover
+            self.pos_ctrl.hover = hover
+            return
         pos_g, att_g = build_gains(self.personality, self._values)
         self.pos_ctrl.g = pos_g
         self.att_ctrl.g = att_g
@@ -158,7 +169,7 @@ class Copter3D:
                 # Angle boost on the measured tilt (ArduPilot), capped so a large tilt cannot ask for 2x thrust.
                 thr /= max(math.cos(s[6]) * math.cos(s[7]), 0.5)
                 thrust = self.att_ctrl.update(roll_d, pitch_d, self._tgt_yaw, s[6:9], s[9:12], min(thr, 1.0))
-            b.set_motors(cmd_for(thrust * self.authority))
+            b.set_motors(cmd_for(thrust * (self.authority * self.airframe_scale)))
             b.run(1)
             for i in range(3):  # dead-reckon the guided target (AC_PosControl update_pos_vel_accel)
                 tp[i] += tv[i] * dt + 0.5 * ta[i] * dt * dt
