@@ -142,8 +142,18 @@ def available_profiles() -> list[str]:
 
 
 def load_profile(name_or_path: str | Path) -> Profile:
-    """Load a shipped profile by name (``sim-planar``) or a TOML file by path."""
-    text: str
+    """Load a shipped profile by name (``sim-planar``) or a TOML file by path.
+
+    A file may start from another profile with a top-level ``extends = "NAME"`` (a shipped name, or a path
+    relative to the file): its tables are taken key by key (nested ones too), the file's own keys win, and
+    ``[[gains]]`` given in the file replace the base's whole list. So a profile for one airframe holds only what
+    differs from the stock one."""
+    data, where = _read(name_or_path, ())
+    return _parse(data, where)
+
+
+def _read(name_or_path: str | Path, chain: tuple[str, ...]) -> tuple[dict[str, Any], str]:
+    """A profile's TOML with its ``extends`` chain merged in (base first), and where it was read from."""
     path = Path(name_or_path)
     if path.suffix == ".toml" and path.exists():
         text, where = path.read_text(), str(path)
@@ -152,11 +162,30 @@ def load_profile(name_or_path: str | Path) -> Profile:
         if not res.is_file():
             raise InputError(f"unknown profile {str(name_or_path)!r}; available: {', '.join(available_profiles())}")
         text, where = res.read_text(), str(res)
+    if where in chain:
+        raise InputError(f"profile {where}: extends itself (through {' -> '.join(chain)})")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"profile {where}: invalid TOML: {exc}") from None
-    return _parse(data, where)
+    base_name = data.pop("extends", None)
+    if base_name is None:
+        return data, where
+    if not isinstance(base_name, str) or not base_name:
+        raise InputError(f"profile {where}: extends must be a profile name or a .toml path")
+    if base_name.endswith(".toml") and not Path(base_name).is_absolute():
+        base_name = str(Path(where).parent / base_name)
+    base, _ = _read(base_name, (*chain, where))
+    return _merged(base, data), where
+
+
+def _merged(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    """``over`` laid on ``base``: tables merge key by key at every depth, anything else (lists included) replaces."""
+    out = dict(base)
+    for key, value in over.items():
+        both = isinstance(value, dict) and isinstance(base.get(key), dict)
+        out[key] = _merged(base[key], value) if both else value
+    return out
 
 
 def _parse(data: dict[str, Any], where: str) -> Profile:

@@ -124,7 +124,7 @@ def test_score_keys_are_the_fields_of_one_dataclass(tmp_path):
     score = "[score]\nQ = [1, 0.1, 1, 0.1, 0.1, 0.1]\nj_hi = 5\n\n[mission]"
     path = _variant(tmp_path, "sim-planar", "[mission]", score)
     assert load_profile(path).score_spec.given() == {"Q": (1.0, 0.1, 1.0, 0.1, 0.1, 0.1), "j_hi": 5.0}
-    assert set(SECTIONS) == {"trust_region", "safety", "mission", "score", "campaign"}
+    assert set(SECTIONS) == {"trust_region", "safety", "mission", "score", "campaign", "validation"}
 
 
 def test_cli_reports_a_bad_profile_in_one_line(tmp_path):
@@ -175,3 +175,32 @@ def test_px4_search_box_reaches_the_position_gain_that_halves_the_sitl_error():
     assert box[i, 1] == pytest.approx(1.9, rel=1e-6)
     assert np.all(box[:, 1] <= 2 * np.asarray(px4.default) * (1 + 1e-9))
     assert np.all(box[:, 0] >= np.asarray(px4.default) / 2 * (1 - 1e-9))
+
+
+def test_a_profile_extends_a_shipped_one_and_overrides_only_what_it_names(tmp_path):
+    stock = load_profile("ardupilot-copter")
+    f = tmp_path / "my-quad.toml"
+    f.write_text('extends = "ardupilot-copter"\n[vehicle]\nname = "my-quad"\n[mission]\nperiod_s = 14.0\n'
+                 '[safety]\ntilt_max_deg = 35.0\n')
+    mine = load_profile(f)
+    assert mine.name == "my-quad" and mine.vehicle["autopilot"] == stock.vehicle["autopilot"]
+    assert mine.mission_spec.period_s == 14.0 and mine.mission_spec.scale_m == stock.mission_spec.scale_m
+    assert mine.safety.tilt_max_deg == 35.0
+    assert mine.safety.x_max_m == stock.safety.x_max_m
+    assert [g.name for g in mine.gains] == [g.name for g in stock.gains]
+    child = tmp_path / "child.toml"  # a chain through a relative path, then a key the base does not know
+    child.write_text('extends = "my-quad.toml"\n[mission]\nlaps = 3\n')
+    assert load_profile(child).mission_spec.period_s == 14.0 and load_profile(child).mission_spec.laps == 3
+    child.write_text('extends = "my-quad.toml"\n[mission]\nlapz = 3\n')
+    with pytest.raises(InputError, match="lapz"):
+        load_profile(child)
+
+
+def test_a_profile_that_extends_itself_or_nothing_known_is_one_clear_error(tmp_path):
+    loop = tmp_path / "loop.toml"
+    loop.write_text('extends = "loop.toml"\n')
+    with pytest.raises(InputError, match="extends itself"):
+        load_profile(loop)
+    loop.write_text('extends = "no-such-profile"\n')
+    with pytest.raises(InputError, match="unknown profile 'no-such-profile'"):
+        load_profile(loop)
