@@ -169,12 +169,19 @@ class ScoreSpec:
 @dataclass(frozen=True)
 class CampaignSpec:
     """``[campaign]``: defaults of ``ksbo-mav tune`` for this vehicle class (the command line overrides them).
-    ``budget``: optimiser trials including the baseline; a copter's profile sets what one battery flies."""
+    ``budget``: optimiser trials including the baseline; a copter's profile sets what one battery flies.
+    ``early_stop``: end the search before the budget once the next flight's expected gain stays below the re-flight
+    noise (times ``stop_ratio``) for ``stop_patience`` trials in a row, after ``stop_min_trials`` trials
+    (:mod:`ksbo_mav.opt.methods.stopping`)."""
 
     budget: int = 30
+    early_stop: bool = False
+    stop_min_trials: int = 4
+    stop_patience: int = 1
+    stop_ratio: float = 1.0
 
     def __post_init__(self) -> None:
-        _positive(self, "budget")
+        _positive(self, "budget", "stop_min_trials", "stop_patience", "stop_ratio")
 
 
 #: Manoeuvres a validation may fly (:mod:`ksbo_mav.mav.validation`).

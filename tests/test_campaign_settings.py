@@ -136,7 +136,8 @@ def test_the_whole_chain_command_line_over_stored_over_profile_over_default(tmp_
 
 #: A value each setting refuses (the test below checks that every declared setting has one).
 BAD = {"dir": 7, "profile": "", "method": "ksb", "budget": 0, "seed": -1, "prior": "simulated", "n_prior": -3,
-       "confirm": -1, "widen": "yes", "warm_start": " ", "baseline_every": 2.5, "on_drift": "ignore", "rate_hz": 30,
+       "early_stop": "yes", "min_trials": 0, "confirm": -1, "widen": "yes", "warm_start": " ", "baseline_every": 2.5,
+       "on_drift": "ignore", "rate_hz": 30,
        "validation": "on", "accept": 1, "end": "crash", "onboard_guard": "off", "settle_s": float("nan"),
        "trial_source": "radio", "sysid": 300, "compid": 0, "safety": {"z_min_m": "low"}, "options": ["beta"]}
 

@@ -36,6 +36,8 @@ class CampaignConfig:
     profile: str | None = _default("profile")
     method: str = _default("method")
     budget: int | None = _default("budget")  # None: the profile's, decided by settle() once connected
+    early_stop: bool | None = _default("early_stop")  # None: the profile's, decided by settle()
+    min_trials: int | None = _default("min_trials")  # None: the profile's, decided by settle()
     seed: int = _default("seed")
     prior: str = _default("prior")
     n_prior: int = _default("n_prior")  # 0 = default for the prior kind (prior_size)
@@ -135,7 +137,8 @@ def settle(cfg: CampaignConfig, profile: Any, stored: Mapping[str, Any] | None =
 
     ``cfg`` holds what the command line gives over the stored campaign's settings (``config_from_args``, by
     :func:`resolve`); ``stored`` is campaign.json on a resume (None: a new campaign). The budget: ``cfg``'s, else
-    the profile's ``[campaign] budget``. The mission rate: ``--rate``, else the rate the campaign flew at (the
+    the profile's ``[campaign] budget``; the same for ``early_stop`` and ``min_trials`` (its ``early_stop`` and
+    ``stop_min_trials``). The mission rate: ``--rate``, else the rate the campaign flew at (the
     link check may have lowered it when it started), else the profile's."""
     budget = resolve(command_line={} if cfg.budget is None else {"budget": cfg.budget},
                      profile={"budget": int(profile.campaign_spec.budget)})["budget"]
@@ -143,7 +146,11 @@ def settle(cfg: CampaignConfig, profile: Any, stored: Mapping[str, Any] | None =
     rate = resolve(command_line={"rate_hz": cfg.rate_hz} if cfg.rate_hz else {},
                    stored={"rate_hz": int(flown)} if flown else {},
                    profile={"rate_hz": int(profile.mission_spec.rate_hz)})["rate_hz"]
-    settled = replace(cfg, budget=budget).validate()
+    spec = profile.campaign_spec
+    stop = resolve(command_line={k: v for k, v in (("early_stop", cfg.early_stop), ("min_trials", cfg.min_trials))
+                                 if v is not None},
+                   profile={"early_stop": bool(spec.early_stop), "min_trials": int(spec.stop_min_trials)})
+    settled = replace(cfg, budget=budget, **stop).validate()
     return settled, MissionRate(rate, lowerable=stored is None and not cfg.rate_hz)
 
 
@@ -159,6 +166,17 @@ def prior_size(cfg: CampaignConfig, kind: str) -> int:
     """Points of a ``kind`` prior: ``cfg.n_prior``, or (0) the kind's :data:`PRIOR_SIZES` default (0 for none)."""
     return resolve(command_line={"n_prior": cfg.n_prior} if cfg.n_prior else {},
                    default={"n_prior": PRIOR_SIZES.get(kind, 0)})["n_prior"]
+
+
+def stop_options(cfg: CampaignConfig, profile: Any) -> dict[str, Any]:
+    """The optimiser's stopping rule (``early_stop``, :mod:`ksbo_mav.opt.methods.stopping`) for a settled ``cfg``:
+    None when the setting ``early_stop`` is off; else the minimum from the settings, the patience and the
+    threshold's ratio from the profile's ``[campaign]`` table."""
+    if not cfg.early_stop:
+        return {"early_stop": None}
+    spec = profile.campaign_spec
+    return {"early_stop": {"min_evals": int(cfg.min_trials or spec.stop_min_trials),
+                           "patience": int(spec.stop_patience), "ratio": float(spec.stop_ratio)}}
 
 
 #: ``backup_beta`` of ``ksbo-adaptive`` on a profile whose ``[safety] backup_covers_trials`` is true: trials are

@@ -15,9 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, prior_kind
+from ksbo_mav.campaign.config import CampaignConfig, optimizer_options, prior_kind, stop_options
 from ksbo_mav.campaign.journal import JournalEntry
 from ksbo_mav.campaign.replay import JournalReplay
+from ksbo_mav.campaign.search_end import search_end
 from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.errors import UnsafeStartError, VehicleError
 from ksbo_mav.mav.approach import moving_starts
@@ -56,17 +57,23 @@ def _optimize(trials: TrialLoop, cfg: Any, done: list[JournalEntry], start: np.n
 
 def search(trials: TrialLoop, cfg: CampaignConfig, x0: np.ndarray, bounds: np.ndarray, prior: Any,
            resume: bool, log: Callable[[str], None]) -> tuple[Any, list[JournalEntry]]:
-    """Run the optimiser over ``bounds`` (d, 2) from ``x0`` (d,) with the ``prior`` (X, y) or None. Returns its
+    """Run the optimiser over ``bounds`` (d, 2) from ``x0`` (d,) with the ``prior`` (X, y) or None, with the
+    stopping rule where the settings turn it on (said on the console when it stops the search). Returns its
     result and the journalled trials a diverged replay could not use."""
     done = trials.journal.of("opt")
     if resume and len(done) > 1:
         log(f"resume: replaying {len(done)} journalled trial(s) through the optimiser (nothing re-flown)")
     try:
-        return _optimize(trials, cfg, done, x0, bounds, prior, cfg.budget, log)
+        result, unused = _optimize(trials, cfg, done, x0, bounds, prior, cfg.budget, log,
+                                   **stop_options(cfg, trials.objective.profile))
     except UnsafeStartError:
         raise VehicleError(f"the baseline gains flew unsafe (P = {done[0].P:.3f} < 0): safe BO needs a safe "
                            "start; fix the gains or the mission/safety settings first (baseline restored)"
                            ) from None
+    end = search_end((getattr(result, "info", None) or {}).get("stop"), trials.journal.of("opt")[0], cfg.confirm)
+    if end is not None and end["stopped"]:
+        log(end["text"])
+    return result, unused
 
 
 def search_box(trials: TrialLoop, cfg: Any, start: np.ndarray, bounds: np.ndarray,

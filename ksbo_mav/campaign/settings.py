@@ -107,6 +107,11 @@ SETTINGS: tuple[Setting, ...] = (
             "optimiser: ksbo-adaptive learns its safety scale and caps aborted trials (docs/optimizer.md)"),
     Setting("budget", Unset(_whole(1)), None, "--budget",
             "optimiser trials incl. the baseline (unset: the profile's [campaign] budget, 10 on the copters)"),
+    Setting("early_stop", Unset(BOOL), None, "--no-early-stop",
+            "stop the search once the next flight's expected gain is below the re-flight noise (unset: the "
+            "profile's; on for the copters)"),
+    Setting("min_trials", Unset(_whole(1)), None, "--min-trials",
+            "optimiser trials (baseline included) before it may stop early (unset: the profile's stop_min_trials)"),
     Setting("seed", _whole(0), 0, "--seed", "optimiser seed"),
     Setting("prior", Choice(PRIOR_KINDS), "auto", "--prior",
             "prior data: sim (simulator episodes), local (flown around the baseline), none; auto: the profile's"),

@@ -10,6 +10,7 @@ import numpy as np
 
 from ksbo_mav.campaign.journal import Journal, JournalEntry, trial_role
 from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.search_end import search_end
 from ksbo_task.flight import Flight
 
 
@@ -66,6 +67,8 @@ class CampaignSummary:
     plots: dict[str, str] = field(default_factory=dict)
     #: With --accept: why the best gains were not left on the vehicle (a failed confirmation flight), else "".
     accept_refused: str = ""
+    #: The stopping rule's record and why the search ended (:mod:`ksbo_mav.campaign.search_end`); None: rule off.
+    search_end: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -104,4 +107,6 @@ def summarize(journal: Journal, result: Any, *, baseline_x: np.ndarray, base: di
         n_aborted=sum(e.outcome != "crash" for e in gain_aborts),
         n_crashed=sum(e.outcome == "crash" for e in gain_aborts), n_failed=len(journal.of("failed")),
         method=method, orders=list(result.orders) if result.orders else None, wall_s=wall_s,
-        dir=str(d.root), ended=ended)
+        dir=str(d.root), ended=ended,
+        search_end=search_end((getattr(result, "info", None) or {}).get("stop"), opt[0] if opt else None,
+                              len(confirms)))

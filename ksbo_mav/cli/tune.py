@@ -11,7 +11,8 @@ from ksbo_mav.errors import InputError
 from ksbo_mav.opt import METHODS
 
 #: Options that define a campaign; on --resume, one given with a different value than stored is refused.
-_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen", "rate_hz", "warm_start")
+_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen", "rate_hz", "warm_start",
+             "early_stop", "min_trials")
 #: The option groups of `tune --help`, in the order a pilot needs them (connection first: always needed).
 GROUPS = ("connection (exactly one)", "campaign directory", "profile and budget", "end of the campaign",
           "optimiser", "mission and drift", "help")
@@ -48,6 +49,9 @@ def add_parser(subparsers) -> None:
     g = p.add_argument_group(GROUPS[2])
     g.add_argument("--profile", help=_help("profile"))
     g.add_argument("--budget", type=int, metavar="N", help=_help("budget", "; --dry-run prints every flight"))
+    g.add_argument("--early-stop", dest="early_stop", action=argparse.BooleanOptionalAction, default=None,
+                   help=_help("early_stop", "; --no-early-stop: fly the budget"))
+    g.add_argument("--min-trials", type=int, metavar="N", help=_help("min_trials"))
     g.add_argument("--dry-run", action="store_true", help="connect, print the flight plan (airspace, flights, "
                    "batteries), change nothing")
     g = p.add_argument_group(GROUPS[3])
@@ -181,6 +185,8 @@ def print_summary(s: Any, log) -> None:
     log(f"trials {s.n_trials}: unsafe (P < 0) {s.n_unsafe}, aborted by the monitor {s.n_aborted}, crashed "
         f"{s.n_crashed}, failed for reasons unrelated to the gains {s.n_failed}; {s.wall_s:.0f} s "
         "for the prior, the trials and the confirmation")
+    if s.search_end:
+        log(s.search_end["text"])
     for name, v in t["values"].items():
         log(f"  {name:<16} {b['values'][name]:>12.6g} -> {v:<12.6g}")
     from ksbo_mav.campaign.report.writer import box_edge_lines

@@ -125,6 +125,10 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
     for r in rec.rows:
         role = "re-flight" if r.role.startswith("re-flight") else r.role
         by_role[role] = by_role.get(role, 0) + 1
+    if result and result.get("search_end"):
+        rows.append(("Search ended", esc(result["search_end"]["text"])))
+    elif result and (rec.settings.get("config") or {}).get("early_stop") is False:
+        rows.append(("Search ended", "the whole budget flown (early stop off: --no-early-stop)"))
     rows.append(("Flights", esc(f"{len(rec.rows)} ("
                                 + ", ".join(f"{n} {role}" for role, n in by_role.items()) + ")")))
     if result and result.get("link"):
