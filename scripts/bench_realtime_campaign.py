@@ -1,0 +1,158 @@
+"""Benchmark records: whole campaigns with their validation flights at the vehicle's real time (SITL speed-up 1)
+and with the autopilot's sensor noise and GPS lag raised, on ArduCopter and PX4 SITL.
+
+A campaign is flown with the ordinary tool (``ksbo-mav tune DIR ... --end hold``, its default budget, early stop
+and validation), on a SITL started at ``-s 1`` with the settings the record names; this script then reads the
+finished campaign directory and appends one record to ``benchmarks/realtime-campaign/runs.jsonl``: flights to
+the result, the training figure-8's lap-2 RMS of the baseline and the recommendation, whether the tool kept real
+time (how late its setpoints went out and how often LOCAL_POSITION_NED arrived, per trial), the validation
+flights' verdict per manoeuvre (the campaign's own rule, ``ksbo_mav.campaign.verdict``) and the interruptions.
+``report`` writes ``results.md`` from the records (the results page's section).
+
+    python scripts/bench_realtime_campaign.py record DIR --stack ardupilot --speedup 1 --sensors "..." \
+        --command "ksbo-mav tune ..." [--note "..."]
+    python scripts/bench_realtime_campaign.py report
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _bench_common import BENCH, append_record, machine, write_result  # noqa: E402
+
+from ksbo_mav.campaign.validation_log import ValidationJournal  # noqa: E402
+from ksbo_mav.campaign.verdict import judge_pairs  # noqa: E402
+
+RUNS = BENCH / "realtime-campaign" / "runs.jsonl"
+
+
+def _trials(d: Path) -> list[dict]:
+    return [json.loads(p.read_text()) for p in sorted((d / "trials").glob("trial_*.json"))]
+
+
+def record(d: Path, stack: str, speedup: float, sensors: str, command: str, note: str) -> dict:
+    res = json.loads((d / "result.json").read_text())
+    trials = _trials(d)
+    by_label: dict[str, list[dict]] = {}
+    for t in trials:
+        by_label.setdefault(t["label"], []).append(t)
+    rms = lambda ts: [t["score"]["rms_lap2_m"] for t in ts if t["score"].get("rms_lap2_m") is not None]  # noqa: E731
+    lags = [t["link"]["lag_max_ms"] for t in trials if t.get("link", {}).get("lag_max_ms") is not None]
+    late = [t["link"]["late_fraction"] for t in trials if t.get("link", {}).get("late_fraction") is not None]
+    rates = [t["score"]["rate_hz"] for t in trials if t["score"].get("rate_hz")]
+    entries = ValidationJournal(d / "validation.jsonl").entries if (d / "validation.jsonl").exists() else []
+    verdicts = {}
+    for pv in judge_pairs(entries):
+        verdicts[pv.pair] = {m: {"verdict": j.verdict, "metric": j.metric, "base": list(j.base), "cand": list(j.cand),
+                                 "spread": j.spread, "diff": j.diff, "base_aborted": j.base_aborted,
+                                 "cand_aborted": j.cand_aborted} for m, j in pv.judged.items()}
+    val_wall = sum(e.ended_unix - e.started_unix for e in entries if e.ended_unix and e.started_unix)
+    return {"stack": stack, "speedup": speedup, "sensors": sensors, "command": command, "note": note,
+            "dir": str(d), "n_trials": res["n_trials"], "flights": len(trials),
+            "flights_by_label": {k: len(v) for k, v in by_label.items()},
+            "outcomes": {o: sum(t["outcome"] == o for t in trials) for o in sorted({t["outcome"] for t in trials})},
+            "n_unsafe": res["n_unsafe"], "n_aborted": res["n_aborted"], "n_crashed": res["n_crashed"],
+            "n_failed": res["n_failed"], "search_end": _search_end(res.get("search_end")), "wall_s": res.get("wall_s"),
+            "baseline_rms": rms([t for t in trials if np.allclose(t["gains"], res["baseline"]["x"])]),
+            "confirm_rms": rms(by_label.get("confirm", [])),
+            "best_x": res["best"]["x"], "lag_max_ms": max(lags) if lags else None,
+            "late_fraction_max": max(late) if late else None, "rate_hz_min": min(rates) if rates else None,
+            "validation_flights": len(entries), "validation_wall_s": round(val_wall, 1),
+            "validation_outcomes": {o: sum(e.outcome.value == o for e in entries)
+                                    for o in {e.outcome.value for e in entries}},
+            "verdicts": verdicts}
+
+
+def _search_end(s: dict | None) -> str:
+    """"early stop after 5 of 10" or "budget 10 flown"."""
+    if not s:
+        return "–"
+    return f"early stop after {s['after']} of {s['budget']}" if s.get("stopped") else f"budget {s['budget']} flown"
+
+
+def _m(xs: list[float]) -> str:
+    return f"{statistics.mean(xs):.3f}" if xs else "–"
+
+
+def _fig(xs: list[float]) -> str:
+    return (f"{statistics.mean(xs):.3g} ({min(xs):.3g}–{max(xs):.3g})" if len(xs) > 1
+            else f"{xs[0]:.3g}" if xs else "–")
+
+
+def report(write: bool) -> str:
+    runs = [json.loads(ln) for ln in RUNS.read_text().splitlines() if ln.strip()] if RUNS.exists() else []
+    rows = ["| stack | speed | sensors | flights to result (optimiser + confirm) | search end | lap-2 RMS baseline → "
+            "recommendation (m) | setpoints late: max (ms), share | LOCAL_POSITION_NED min (Hz) | interrupted / "
+            "aborted / P<0 / crashed | validation flights (wall s) | verdict of the recommendation |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
+    detail = ["| stack | sensors | manoeuvre | figure | baseline mean (min–max) | recommendation mean (min–max) "
+              "| verdict |", "|---|---|---|---|---|---|---|"]
+    for r in runs:
+        lab = r["flights_by_label"]
+        opt = lab.get("baseline", 0) + lab.get("opt", 0)
+        rec = r["verdicts"].get("recommendation", {})
+        words = "; ".join(f"{m}: {v['verdict']}" for m, v in rec.items()) or "not flown"
+        interrupted = r["n_failed"]
+        rows.append(f"| {r['stack']} | ×{r['speedup']:g} | {r['sensors']} | {r['flights']} ({opt} + "
+                    f"{lab.get('confirm', 0)}) | {r.get('search_end') or '–'} | {_m(r['baseline_rms'])} → "
+                    f"{_m(r['confirm_rms'])} | {r['lag_max_ms'] if r['lag_max_ms'] is not None else '–'}, "
+                    f"{(r['late_fraction_max'] or 0):.1%} | {r['rate_hz_min'] or '–'} | {interrupted} / "
+                    f"{r['n_aborted']} / {r['n_unsafe']} / {r['n_crashed']} | {r['validation_flights']} "
+                    f"({r['validation_wall_s']:.0f}) | {words} |")
+        for m, v in rec.items():
+            detail.append(f"| {r['stack']} | {r['sensors']} | {m} | {v['metric']} | {_fig(v['base'])} | "
+                          f"{_fig(v['cand'])} | {v['verdict']} |")
+    cmds = "\n".join(f"- {r['stack']}, {r['sensors']} ({r['at']}): `{r['command']}`" + (f" — {r['note']}" if
+                     r.get("note") else "") for r in runs)
+    body = "\n\n".join([
+        f"Machine: {'; '.join(sorted({r['machine'] for r in runs})) or '–'}. Records: `runs.jsonl` (one per "
+        "campaign, `python scripts/bench_realtime_campaign.py record DIR ...`); settings and reasons: "
+        "[benchmarks/notes/realtime-sensors.md](../notes/realtime-sensors.md).",
+        "Each row is one campaign of the tool's defaults (`ksbo-mav tune DIR --end hold`: the profile's budget 10 "
+        "with early stop, the simulator prior, one confirmation flight, validation `quick`: each manoeuvre "
+        "flown twice per gain set, alternated) on a SITL at real time (`-s 1`). Flights to result = optimiser "
+        "trials (baseline included) + confirmation flights; the lap-2 RMS is the training figure-8's (3-D, m). "
+        "Setpoints late: how far past its due time on the vehicle's clock the worst setpoint of any trial went out, "
+        "and the largest share of a trial's setpoints sent late; the verdict is the campaign's own (better / no "
+        "measurable change / worse beyond the repeats' spread).",
+        "\n".join(rows), "Validation figures of the recommendation against the baseline (deciding figure: steps "
+        "mean settling time s, hold RMS drift m, AUTO mission cross-track RMS m; lower is better):",
+        "\n".join(detail), "Commands:\n\n" + cmds])
+    print(body)
+    if write:
+        write_result("realtime-campaign", body)
+    return body
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("record", help="append the record of a finished campaign directory")
+    r.add_argument("dir", type=Path)
+    r.add_argument("--stack", choices=["ardupilot", "px4"], required=True)
+    r.add_argument("--speedup", type=float, default=1.0)
+    r.add_argument("--sensors", required=True, help="the SITL's sensor settings in a few words")
+    r.add_argument("--command", required=True, help="the tune command as run")
+    r.add_argument("--note", default="")
+    sub.add_parser("report", help="write results.md from the records")
+    a = ap.parse_args()
+    if a.cmd == "record":
+        rec = record(a.dir, a.stack, a.speedup, a.sensors, a.command, a.note)
+        if RUNS.exists():  # a campaign recorded again replaces its earlier record
+            keep = [ln for ln in RUNS.read_text().splitlines() if ln.strip() and json.loads(ln)["dir"] != rec["dir"]]
+            RUNS.write_text("".join(ln + "\n" for ln in keep))
+        append_record(RUNS, {**rec, "machine": machine(), "at": time.strftime("%Y-%m-%d %H:%M", time.gmtime())})
+    report(True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
