@@ -4,11 +4,13 @@ figure-8 yet scores like a streamed one, a tlog that replays to the same score, 
 stopping it. The same on ArduCopter SITL: ``test_sitl_onboard_trial.py``.
 
 The simulator is the JSBSim copter with ArduPilot's (legacy) parameter names, in lockstep, flying a short
-figure-8 (8 s period, 2 s lead-in) so that a trial takes seconds.
+figure-8 (8 s period, 2 s lead-in) so that a trial takes seconds; a whole ``tune`` campaign with the defaults
+(marked slow) flies every figure-8 on board.
 """
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -125,3 +127,26 @@ def test_a_ground_trial_on_a_guard_with_a_figure8_streams_as_before(copter, tmp_
     f = obj.fly(v.gain_map.from_params(base), label="ground")
     assert f.outcome is TrialOutcome.OK and sent_setpoints(f.meta["tlog"]) >= v.mission.steps
     assert not f.meta["trajectory"]["on_board"]
+
+
+@pytest.mark.slow  # a whole campaign (about 2 minutes)
+@pytest.mark.timeout(300)
+def test_a_campaign_on_arducopter_flies_its_figure8s_on_board_by_default(tmp_path, capsys):
+    from mav_tune_helpers import fresh_read, sim_and_endpoint
+
+    from ksbo_mav.cli import main
+
+    d = tmp_path / "c"
+    with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot-legacy") as (sim, ep):
+        rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--budget", "2", "--prior", "none",
+                   "--confirm", "1", "--validation", "off", "--end", "hold", "--json"])
+        out = capsys.readouterr()
+        assert rc == 0, out.err
+        assert "trials: the figure-8 flown on board by the onboard guard" in out.err
+        records = [json.loads(p.read_text()) for p in sorted((d / "trials").glob("trial_*.json"))]
+        assert len(records) >= 3 and all(r["trajectory"]["on_board"] for r in records), \
+            [(r["label"], r["trajectory"].get("on_board")) for r in records]
+        assert all(r["score"]["complete"] for r in records)
+        assert all(sent_setpoints(r["tlog"]) == 0 for r in records)
+        left = fresh_read(sim, list(GUARD_PARAMS), "ardupilot-copter")
+        assert left == GUARD_PARAMS  # the guard removed with everything it added
