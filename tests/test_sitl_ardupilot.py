@@ -173,6 +173,7 @@ def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ar
     after = next(e for e in entries[entries.index(cut[0]) + 1:] if e["kind"] != "failed")
     assert after["kind"] == "opt" and after["x"] == cut[0]["x"] and after["outcome"] == "ok", entries
     message = json.loads((d / "trials" / f"trial_{cut[0]['trial']:03d}.json").read_text())["message"]
+    print(f"the interrupted trial's message: {message}")
     assert "baseline's gains set; baseline restored and verified; taken back from" in message, message
     assert "link back after" in (d / "report" / "index.html").read_text()
     now, armed = read_all(ardupilot_sitl, PROFILE)
