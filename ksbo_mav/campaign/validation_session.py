@@ -118,6 +118,7 @@ def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None 
                       compid: int | None = None) -> ValidationReport:
     """``ksbo-mav validate``: fly a finished campaign's validation (``mode``: "quick" or "full"; None: the
     campaign's setting, "quick" if it was off), leave the gains found on the vehicle, write the report."""
+    from ksbo_mav.campaign.link_loss_policy import LinkLossChoice, check_link_loss
     from ksbo_mav.campaign.mission_rate import fly_at
 
     d = CampaignDir.at(path)
@@ -136,6 +137,7 @@ def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None 
             log(f"validation: {why}")
             return ValidationReport(skipped=why)
         plan.check(v, cfg.safety)
+        check_link_loss(v, LinkLossChoice(), log)  # PX4 over a link away from the vehicle: refused, as for tune
         home = _home_gains(v, d, snap.baseline(), result["best"]["values"], log)
         flown = ((settings.get("mission") or {}).get("rate_hz"))
         fly_at(v, MissionRate(int(flown or v.mission.rate_hz), lowerable=False), log)

@@ -25,6 +25,8 @@ G = 9.80665
 MIN_SPEED_SPREAD = 0.7
 #: Resampling step (s) of the fit: velocity differentiated and attitude averaged over it.
 STEP_S = 0.1
+#: Horizontal acceleration (m/s^2) above which a sample is left out of the fit.
+MAX_ACCEL = 2.0
 
 
 @dataclass(frozen=True)
@@ -69,10 +71,14 @@ def drag_samples(t: np.ndarray, vel: np.ndarray, att: np.ndarray) -> tuple[np.nd
     drag = acc[:, :2] + thrust[:, None] * np.column_stack([r02, r12])
     k = int(round(STEP_S / 0.02))
     m = grid.size // k
+
     def mean(a: np.ndarray) -> np.ndarray:
         return a[:m * k].reshape(m, k, -1).mean(axis=1)
 
-    return mean(v[:, :2]), mean(drag)
+    # Hard manoeuvring (a corner, a step's start) is left out: there the lean leads the measured acceleration and
+    # the difference would read as drag.
+    calm = mean(np.linalg.norm(acc[:, :2], axis=1)[:, None])[:, 0] <= MAX_ACCEL
+    return mean(v[:, :2])[calm], mean(drag)[calm]
 
 
 def fit_wind(t: np.ndarray, vel: np.ndarray, att: np.ndarray) -> WindFit | None:
@@ -100,13 +106,14 @@ def fit_wind(t: np.ndarray, vel: np.ndarray, att: np.ndarray) -> WindFit | None:
 
     best = None
     for start in (np.array([c0, 0.0, *w0]), np.array([0.05, 0.05, *w0]), np.array([0.1, 0.02, 0.0, 0.0])):
-        r = least_squares(resid, start, bounds=([0.0, 0.0, -40.0, -40.0], [5.0, 2.0, 40.0, 40.0]))
+        r = least_squares(resid, start, bounds=([0.0, 0.0, -40.0, -40.0], [5.0, 2.0, 40.0, 40.0]),
+                          loss="soft_l1", f_scale=0.3)  # a gust or a glitch does not drag the fit
         if best is None or r.cost < best.cost:
             best = r
     c_lin, c_quad, wn, we = (float(x) for x in best.x)
     if c_lin + c_quad <= 1e-4:
         return None
-    rms = float(np.sqrt(np.mean(best.fun ** 2)))
+    rms = float(np.sqrt(np.mean(resid(best.x) ** 2)))
     return WindFit(wn, we, c_lin, c_quad, rms, len(v))
 
 
