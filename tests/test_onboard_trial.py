@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from onboard_helpers import fly_pair_of_trials, sent_setpoints, short_mission
 
+from ksbo_mav.flightlog.tlogs import read_any_tlog
 from ksbo_mav.mav.guard_script import GUARD_PARAMS, config_for, figure8_for, new_config_id, render_script
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.mission import Mission
@@ -104,6 +106,11 @@ def test_the_tlog_of_an_onboard_trial_replays_to_the_live_score(copter, tmp_path
     again = v.mission.score(traj, rms_ref=info.get("rms_ref"))
     assert info["on_board"] and again["rms_lap2_m"] == pytest.approx(live.score["rms_lap2_m"], rel=1e-9)
     assert math.isfinite(again["rms_lap2_m"])
+    # `ksbo-mav score`'s flight analysis compares with the figure-8 the guard flew, which the tuner never sent
+    log = read_any_tlog(Path(live.meta["tlog"]))
+    t0 = info["t0_ms"] / 1000.0
+    inside = (log.commanded.t >= t0) & (log.commanded.t <= t0 + v.mission.steps * v.mission.dt)
+    assert inside.sum() >= v.mission.steps and any("onboard guard flew" in w for w in log.warnings)
 
 
 def test_the_tuners_monitor_stops_the_figure8_on_board(copter, tmp_path):

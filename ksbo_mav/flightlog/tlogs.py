@@ -21,6 +21,8 @@ from ksbo_mav.flightlog.detect import open_log
 from ksbo_mav.flightlog.model import FlightLog, Marker, ModeChange, Track
 from ksbo_mav.flightlog.modes import PX4_AUTO_SUB, PX4_MAIN, ardupilot_mode, vehicle_from_type
 from ksbo_mav.flightlog.tlog_frames import TlogScanner
+from ksbo_mav.mav.trajectory import BOARD_RE, START_RE
+from ksbo_task.figure8_ne import Figure8H
 
 _WANT = {0, 22, 32, 33, 49, 84, 85, 87, 148, 245, 253}
 _TIMED = {30, 32, 85, 87, 2, 33}  # messages whose time_boot_ms advances the vehicle clock
@@ -169,6 +171,26 @@ def _coverage(a: Track, b: Track, gap: float = 1.0) -> float:
     return float(np.mean(near <= gap)) if len(b.t) else 1.0
 
 
+def _board_figure8s(markers: list[Marker], step_s: float = 0.02) -> list[tuple[float, ...]]:
+    """The references of the figure-8s the onboard guard flew (a ``ksbo f8h board`` marker after a start marker),
+    sampled every ``step_s``: the targets the tuner never sent, as rows of the sent setpoints."""
+    rows: list[tuple[float, ...]] = []
+    start = None
+    for mk in markers:
+        m = START_RE.match(mk.text)
+        if m:
+            start = (int(m.group(2)), int(m.group(3)) * int(m.group(4)))  # t0 (ms), length (ms)
+            continue
+        b = BOARD_RE.match(mk.text)
+        if b and start is not None:
+            a, e, period, up, lead = (float(g) for g in b.groups())
+            t = np.arange(0.0, start[1] / 1000.0 + step_s / 2, step_s)
+            pos, vel, _ = Figure8H(amp_north=a, amp_east=e, period=period, altitude=up, lead_in=lead).state(t)
+            rows += [(start[0] / 1000.0 + ti, *p, *v) for ti, p, v in zip(t.tolist(), pos.tolist(), vel.tolist())]
+            start = None
+    return rows
+
+
 def _to_log(p: Path, size: int, r: _Rows, scan: TlogScanner) -> FlightLog:
     actual = _track(r.pos, "LOCAL_POSITION_NED")
     if actual is None:
@@ -182,6 +204,9 @@ def _to_log(p: Path, size: int, r: _Rows, scan: TlogScanner) -> FlightLog:
                          + advice.tlog_no_position(r.info, r.autopilot))
     target = _track(r.tgt, "POSITION_TARGET_LOCAL_NED (autopilot target)")
     warnings = []
+    board = _board_figure8s(r.markers)
+    if board:  # (in time order with the sent holds around them)
+        r.cmd = sorted(r.cmd + board)
     commanded = _track(r.cmd, "SET_POSITION_TARGET_LOCAL_NED (sent by the ground station)")
     if target is None:
         target, why = _global_targets(r, actual)
@@ -201,7 +226,8 @@ def _to_log(p: Path, size: int, r: _Rows, scan: TlogScanner) -> FlightLog:
     log.skipped = scan.skipped
     if target is None and commanded is not None:
         log.warnings.append("the vehicle's POSITION_TARGET_LOCAL_NED is not in the tlog: errors are against the "
-                            "setpoints the ground station sent")
+                            "setpoints the ground station sent" + (" and the figure-8s the onboard guard flew"
+                                                                   if board else ""))
     if log.target is None:
         log.info["no_targets"] = advice.tlog_no_targets(r.info, r.autopilot, r.modes)
     if scan.cut is not None:
