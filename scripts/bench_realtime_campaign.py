@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _bench_common import BENCH, append_record, machine, write_result  # noqa: E402
 
 from ksbo_mav.campaign.validation_log import ValidationJournal  # noqa: E402
-from ksbo_mav.campaign.verdict import judge_pairs  # noqa: E402
+from ksbo_mav.campaign.verdict import judge_pairs, worst  # noqa: E402
 
 RUNS = BENCH / "realtime-campaign" / "runs.jsonl"
 
@@ -89,6 +89,7 @@ def _fig(xs: list[float]) -> str:
 
 def report(write: bool) -> str:
     runs = [json.loads(ln) for ln in RUNS.read_text().splitlines() if ln.strip()] if RUNS.exists() else []
+    runs.sort(key=lambda r: (r["stack"], r["sensors"] != "SITL defaults"))  # each stack's defaults first
     rows = ["| stack | speed | sensors | flights to result (optimiser + confirm) | search end | lap-2 RMS baseline → "
             "recommendation (m) | setpoints late: max (ms), share | LOCAL_POSITION_NED min (Hz) | interrupted / "
             "aborted / P<0 / crashed | validation flights (wall s) | verdict of the recommendation |",
@@ -100,6 +101,12 @@ def report(write: bool) -> str:
         opt = lab.get("baseline", 0) + lab.get("opt", 0)
         rec = r["verdicts"].get("recommendation", {})
         words = "; ".join(f"{m}: {v['verdict']}" for m, v in rec.items()) or "not flown"
+        others = []
+        for pair, judged in r["verdicts"].items():
+            if pair != "recommendation":
+                each = "; ".join(f"{m} {v['verdict']}" for m, v in judged.items())
+                others.append(f"{pair}: {worst([v['verdict'] for v in judged.values()])} ({each})")
+        words += "".join(f"; next candidate flown, {o}" for o in others)
         interrupted = r["n_failed"]
         rows.append(f"| {r['stack']} | ×{r['speedup']:g} | {r['sensors']} | {r['flights']} ({opt} + "
                     f"{lab.get('confirm', 0)}) | {r.get('search_end') or '–'} | {_m(r['baseline_rms'])} → "

@@ -199,8 +199,10 @@ def _figure(row: dict) -> float | None:
 def report(write: bool) -> str:
     runs = [json.loads(ln) for ln in RUNS.read_text().splitlines() if ln.strip()] if RUNS.exists() else []
     full = [r for r in runs if r["reps"] >= 2]
+    newest = {(r["speedup"], tuple(r["sitl_set"])): r for r in full}  # per speed-up and SITL settings
+    shown = sorted(newest.values(), key=lambda r: -len({row["source"] for row in r["rows"]}))  # fullest first
     lines = []
-    for r in full[-2:]:
+    for r in shown:
         lines += [f"### SITL ×{r['speedup']:g}, {r['reps']} flights per cell, alternated (run {r['at']})"
                   + (f", SITL {' '.join(r['sitl_set'])}" if r["sitl_set"] else ""), "",
                   f"Tuned gains: {', '.join(f'{v:.3g}' for v in r['tuned'])} ({r['tuned_from']}); baseline "
@@ -222,7 +224,8 @@ def report(write: bool) -> str:
         lines.append("")
     body = (f"Machine: {'; '.join(sorted({r['machine'] for r in full})) or '–'}. Script: "
             "`python scripts/bench_training_vs_flown.py --tuned X --reps 3 --speedup S` (runs in `runs.jsonl`; "
-            "the newest runs with 2+ repeats shown). ArduCopter SITL, calm; each row the same gain sets flown "
+            "the newest run with 2+ repeats per speed-up and SITL settings, the one with the most sources first). "
+            "ArduCopter SITL, calm unless the SITL settings say otherwise; each row the same gain sets flown "
             "alternately (A B A B). Figure-8 rows: lap-2 3-D RMS of the measured position against the pattern at "
             "each sample's own stamp (for the tuner's trials this equals its own score to 1e-6 m). Reading: "
             "[docs/training-trial.md](../../docs/training-trial.md).\n\n" + "\n".join(lines))
