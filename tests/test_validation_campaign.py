@@ -158,3 +158,57 @@ def test_validate_later_flies_nothing_twice(campaign, capsys):
     assert "the vehicle holds the baseline gains" in text and "validation, recommendation against the baseline" in text
     assert not (d / "validation_start.json").exists()
     assert fresh_read(sim, NAMES, None) == pytest.approx(out["before"], rel=1e-6)
+
+
+@pytest.mark.slow
+def test_a_worse_recommendation_makes_validate_fly_the_next_candidate(campaign, tmp_path, capsys):
+    """The campaign's recommendation replaced, in a copy, by sluggish gains (the position and velocity P halved):
+    worse than the baseline on a manoeuvre, so `validate` flies the campaign's next best trial the same way, A B
+    A B, and the verdict names the best candidate that is worse nowhere (or says that none is)."""
+    d, sim, ep, out = campaign
+    slow = tmp_path / "slow"
+    shutil.copytree(d, slow)
+    (slow / "validation.jsonl").unlink()
+    shutil.rmtree(slow / "validation")
+    result = json.loads((slow / "result.json").read_text())
+    settings = json.loads((slow / "campaign.json").read_text())
+    x = list(settings["x0"])
+    x[0], x[1] = x[0] / 2, x[1] / 2  # PSC_NE_POS_P, PSC_NE_VEL_P
+    result["best"]["x"] = x
+    result["best"]["values"] = {n: v * (0.5 if n in ("PSC_NE_POS_P", "PSC_NE_VEL_P") else 1.0)
+                                for n, v in settings["baseline"].items()}
+    (slow / "result.json").write_text(json.dumps(result))
+    assert main(["validate", str(slow), "--udp", f"127.0.0.1:{ep.port}", "--end", "hold"]) == 0
+    text = capsys.readouterr().out
+    verdicts = judge_pairs(ValidationJournal(slow / "validation.jsonl").entries)
+    assert verdicts[0].pair == "recommendation" and verdicts[0].worse_on, text
+    assert len(verdicts) == 2 and verdicts[1].pair.startswith("trial "), text
+    flights = _lines(slow / "validation.jsonl")
+    mine = [f["gains"] for f in flights if f["pair"] == verdicts[1].pair and f["manoeuvre"] == "hold"]
+    assert mine == ["baseline", verdicts[1].pair] * 2
+    named = "best candidate worse nowhere: " + verdicts[1].pair if not verdicts[1].worse_on else \
+        "no candidate flown is worse nowhere"
+    assert named in text and named in (slow / "report" / "index.html").read_text()
+    assert fresh_read(sim, NAMES, None) == pytest.approx(out["before"], rel=1e-6)
+
+
+@pytest.mark.slow
+def test_a_pack_too_short_for_the_validation_stops_it_cleanly(tmp_path, capsys):
+    """A pack (the simulator's, 1100 mAh at 10 A) that carries the tune but not its validation flights: they stop
+    before the flight the pack would not fit, in one line naming `ksbo-mav validate`; the tune ends as usual (its
+    result written, the baseline restored, landed) and exits 0."""
+    d = tmp_path / "c"
+    prof = _profile(tmp_path)
+    with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot", "--battery", "1100") as (sim, ep):
+        before = fresh_read(sim, NAMES, None)
+        rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--profile", str(prof), "--budget", "3",
+                   "--method", "random", "--prior", "none", "--no-onboard-guard"])
+        err = capsys.readouterr().err
+        assert rc == 0, err
+        text = " ".join(err.split())
+        assert "validation stopped: battery: " in text and f"`ksbo-mav validate {d}" in text, text[-3000:]
+        assert "landed and disarmed" in text
+        flights = _lines(d / "validation.jsonl")
+        assert len(flights) < 12 and all(f["outcome"] == "ok" for f in flights)
+        assert (d / "result.json").is_file()
+        assert fresh_read(sim, NAMES, None) == pytest.approx(before, rel=1e-6)

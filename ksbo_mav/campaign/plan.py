@@ -9,6 +9,7 @@ from typing import Any
 
 from ksbo_mav.campaign.config import CampaignConfig, prior_kind, prior_size, profile_defaults
 from ksbo_mav.campaign.layout import CampaignDir
+from ksbo_mav.campaign.validation import ValidationPlan
 from ksbo_mav.mav.approach import approach_distance, approach_seconds
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.vehicle import Vehicle
@@ -37,6 +38,7 @@ def campaign_plan(v: Vehicle, cfg: CampaignConfig, d: CampaignDir, base: dict[st
         f"(+ prior '{kind}'{prior_note(kind, prior_size(cfg, kind))}), seed {cfg.seed}" + options_note(cfg, v.profile),
         "gains (profile name, vehicle name, current value, optimiser range):", *rows,
         flight_plan(v.profile, n_prior, cfg.budget, cfg.confirm, cfg.settle_s, cfg.baseline_every),
+        ValidationPlan.describe(v.profile, cfg.validation),
         *([f"early stop: the search may end after {cfg.min_trials} trials, when the next flight's expected gain is "
            "below the re-flight noise (--no-early-stop flies the budget)"] if cfg.early_stop else []),
         f"at the end: {'write the best gains (accept)' if cfg.accept else 'restore the baseline'}, "

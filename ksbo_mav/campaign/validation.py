@@ -60,6 +60,20 @@ class ValidationPlan:
             return cls(manoeuvres, spec.full_repeats, spec.candidates)
         return cls(tuple(m.quick() for m in manoeuvres), spec.repeats, min(1, spec.candidates))
 
+    @staticmethod
+    def describe(profile: Any, mode: str) -> str:
+        """One line of the flight plan: what the validation will fly (``tune --dry-run``)."""
+        plan = ValidationPlan.of(profile, mode)
+        if plan is None:
+            return ("validation: none (--validation off)" if mode == "off"
+                    else f"validation: none (profile {profile.name} names no [validation] manoeuvres)")
+        kinds = ", ".join(m.kind for m in plan.manoeuvres)
+        n = 2 * plan.repeats * len(plan.manoeuvres)
+        more = f", and as many per further candidate (up to {plan.candidates}) if it flies worse" \
+            if plan.candidates else ""
+        return (f"validation ({mode}): {kinds}, the baseline and the recommendation alternated, {plan.repeats} "
+                f"flights each: {n} flights after the confirmation{more}")
+
     def check(self, v: Vehicle, safety: dict[str, float] | None = None) -> None:
         """InputError (one line) unless every manoeuvre's targets lie inside the safety box, from the mission's
         start where the vehicle hovers before each flight."""
