@@ -9,8 +9,9 @@ locked out; run the tuner with that ``--sysid`` instead). The rendered script go
 controller's SD card) or ``scripts/`` (a SITL's working directory) over MAVLink FTP, then MAV_CMD_SCRIPTING
 restarts the scripts and the guard must report this campaign's configuration id within :data:`ALIVE_WAIT_S`.
 
-Removing sets ``KSG_STATE`` and ``KSG_TRIP`` back to their defaults, deletes the file and restarts the scripts:
-the two parameters leave the list at the next reboot (ArduPilot keeps a script's table until then).
+Removing sets the guard's parameters (``GUARD_PARAMS``: ``KSG_STATE``, ``KSG_TRIP``, ``KSG_F8``, ``KSG_T0``) back to
+their defaults, deletes the file and restarts the scripts: the parameters leave the list at the next reboot
+(ArduPilot keeps a script's table until then).
 """
 
 from __future__ import annotations
