@@ -60,7 +60,8 @@ def vehicle(a: argparse.Namespace):
     else:
         from _bench_common import sim_and_endpoint
 
-        with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot") as (_sim, ep):
+        sets = [arg for kv in a.sim_set for arg in ("--set", kv)]
+        with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot", *sets) as (_sim, ep):
             yield ["--udp", f"127.0.0.1:{ep.port}"], ep
 
 
@@ -101,6 +102,10 @@ def run(a: argparse.Namespace) -> dict:
         cands = best_so_far(entries, names)[-N_CANDIDATES:]
         rec["candidates"] = [(k, round(rms, 4)) for k, _, rms in cands]
         gains = {"rec": best["values"], **{f"f{k}": g for k, g, _ in cands}}
+        for k in a.refly_after:  # the best flown gains after flight k, whether or not among the last changes
+            upto = [g for j, g, _ in best_so_far(entries, names) if j <= k]
+            if upto:
+                gains[f"after{k}"] = upto[-1]
         if a.reference:
             gains["long"] = json.loads((Path(a.reference) / "result.json").read_text())["best"]["values"]
         rec["reflown"] = refly_in_turn(d, ep, gains)
@@ -134,6 +139,10 @@ def main() -> None:
     ap.add_argument("--wind", type=float, default=0.0, help="SITL: SIM_WIND_SPD (m/s)")
     ap.add_argument("--turb", type=float, default=0.0, help="SITL: SIM_WIND_TURB")
     ap.add_argument("--instance", type=int, default=3, help="SITL instance (PX4: 0..9)")
+    ap.add_argument("--sim-set", action="append", default=[], metavar="NAME=VALUE",
+                    help="our JSBSim copter: a parameter set at start (ksbo-mav sim --set), e.g. MOT_THST_HOVER=0.5")
+    ap.add_argument("--refly-after", type=lambda t: [int(k) for k in t.split(",")], default=[], metavar="K,K",
+                    help="also re-fly the best flown gains after these flights (e.g. 2,3)")
     a = ap.parse_args(argv)
     a.tune = tune
     r = run(a)
