@@ -203,6 +203,8 @@ def render(rec: CampaignRecord, result: dict[str, Any] | None, hits: Sequence[Ed
     about = (f"profile {s.get('profile')}, method {cfg.get('method')}, budget {cfg.get('budget')}, seed "
              f"{cfg.get('seed')}, prior {prior}"
              + ("; flown WITHOUT the onboard guard (--no-onboard-guard)" if cfg.get("onboard_guard") is False else "")
+             + ("; figure-8s streamed from the ground (--trial-source ground)"
+                if cfg.get("trial_source") == "ground" else "")
              + f"; written {time.strftime('%Y-%m-%d %H:%M:%S')}")
     return f"""<!DOCTYPE html>
 <html xmlns="http://www.w3.org/1999/xhtml" lang="en">
