@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from ksbo_mav.campaign import validation_verdicts
 from ksbo_mav.campaign.validation_log import ValidationEntry, ValidationJournal
 from ksbo_mav.campaign.verdict import (BETTER, SAME, UNMEASURED, WORSE, best_not_worse, judge, judge_pairs,
                                        refusal)
@@ -66,6 +67,10 @@ def test_a_recommendation_worse_on_a_manoeuvre_is_refused_and_the_best_candidate
     assert [p.pair for p in verdicts] == ["recommendation", "trial 7"]
     assert verdicts[0].worse_on == ["hold"] and verdicts[0].overall == WORSE
     assert verdicts[1].overall == BETTER and best_not_worse(verdicts).pair == "trial 7"
+    as_json = validation_verdicts(tmp_path)  # what a script reads back from the campaign directory
+    assert [p["overall"] for p in as_json] == [WORSE, BETTER]
+    assert as_json[0]["manoeuvres"]["hold"]["baseline"] == [0.20, 0.21] and as_json[0]["manoeuvres"]["hold"][
+        "metric"] == "hold_rms_m"
     line = refusal(verdicts)
     assert "\n" not in line and "hold: worse (hold_rms_m 0.205 -> 0.355" in line
     assert "best candidate worse nowhere: trial 7" in line and "auto_mission" not in line

@@ -9,6 +9,7 @@ from ksbo_mav.campaign.journal import Journal, JournalEntry
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.runner import Campaign
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent
+from ksbo_mav.campaign.validation_session import validate_campaign, validation_verdicts
 
 __all__ = ["Campaign", "CampaignConfig", "CampaignDir", "CampaignSummary", "Journal", "JournalEntry", "TrialEvent",
-           "accept_campaign", "optimizer_options", "restore_snapshot"]
+           "accept_campaign", "optimizer_options", "restore_snapshot", "validate_campaign", "validation_verdicts"]

@@ -62,6 +62,16 @@ class ValidationReport:
         return out
 
 
+def validation_verdicts(path: str | Path) -> list[dict[str, Any]]:
+    """The verdicts of a campaign's validation flights as flown so far (its ``validation.jsonl``), one dict per
+    comparison (:meth:`~ksbo_mav.campaign.verdict.PairVerdict.to_dict`); empty without validation flights."""
+    from ksbo_mav.campaign.validation_log import ValidationJournal
+    from ksbo_mav.campaign.verdict import judge_pairs
+
+    d = CampaignDir.at(path)
+    return [p.to_dict() for p in judge_pairs(ValidationJournal(d.validation_journal).entries)]
+
+
 def check_validation(v: Vehicle, cfg: CampaignConfig) -> None:
     """Before a tune flies: InputError (one line) when the profile's validation manoeuvres would not fit the safety
     box (found now, not after the tune)."""

@@ -107,6 +107,15 @@ class PairVerdict:
     def lines(self) -> list[str]:
         return [j.line(m) for m, j in self.judged.items()]
 
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly: the pair, its overall word, and per manoeuvre the verdict, the figure judged, the
+        figures of both sides, the spread and the difference of the means."""
+        return {"pair": self.pair, "overall": self.overall, "x": None if self.x is None else list(self.x),
+                "manoeuvres": {m: {"verdict": j.verdict, "metric": j.metric, "baseline": list(j.base),
+                                   "candidate": list(j.cand), "spread": j.spread, "diff": j.diff,
+                                   "baseline_aborted": j.base_aborted, "candidate_aborted": j.cand_aborted}
+                               for m, j in self.judged.items()}}
+
 
 def judge_pairs(entries: Sequence[Any]) -> list[PairVerdict]:
     """Every comparison in a validation journal's ``entries``
