@@ -119,10 +119,12 @@ def report(write: bool) -> str:
                           f"{_fig(v['cand'])} | {v['verdict']} |")
     cmds = "\n".join(f"- {r['stack']}, {r['sensors']} ({r['at']}): `{r['command']}`" + (f" — {r['note']}" if
                      r.get("note") else "") for r in runs)
+    newest = max(runs, key=lambda r: r["at"])["machine"] if runs else "–"
+    machine_line = (f"Machine: {newest} (newest record). Records: `runs.jsonl`, one per "
+                    "campaign (`python scripts/bench_realtime_campaign.py record DIR ...`); settings, commands and "
+                    "reasons: `benchmarks/notes/realtime-sensors.md`.")
     body = "\n\n".join([
-        f"Machine: {'; '.join(sorted({r['machine'] for r in runs})) or '–'}. Records: `runs.jsonl` (one per "
-        "campaign, `python scripts/bench_realtime_campaign.py record DIR ...`); settings and reasons: "
-        "[benchmarks/notes/realtime-sensors.md](../notes/realtime-sensors.md).",
+        machine_line, "\n".join(rows),
         "Each row is one campaign of the tool's defaults (`ksbo-mav tune DIR --end hold`: the profile's budget 10 "
         "with early stop, the simulator prior, one confirmation flight, validation `quick`: each manoeuvre "
         "flown twice per gain set, alternated) on a SITL at real time (`-s 1`). Flights to result = optimiser "
@@ -130,8 +132,9 @@ def report(write: bool) -> str:
         "Setpoints late: how far past its due time on the vehicle's clock the worst setpoint of any trial went out, "
         "and the largest share of a trial's setpoints sent late; the verdict is the campaign's own (better / no "
         "measurable change / worse beyond the repeats' spread).",
-        "\n".join(rows), "Validation figures of the recommendation against the baseline (deciding figure: steps "
-        "mean settling time s, hold RMS drift m, AUTO mission cross-track RMS m; lower is better):",
+        "Validation figures of the recommendation against the baseline (deciding figure: steps mean settling "
+        "time s, or the mean overshoot % where a step did not settle within its dwell; hold RMS drift m; AUTO "
+        "mission cross-track RMS m; lower is better):",
         "\n".join(detail), "Commands:\n\n" + cmds])
     print(body)
     if write:

@@ -205,8 +205,6 @@ def report(write: bool) -> str:
     for r in shown:
         lines += [f"### SITL ×{r['speedup']:g}, {r['reps']} flights per cell, alternated (run {r['at']})"
                   + (f", SITL {' '.join(r['sitl_set'])}" if r["sitl_set"] else ""), "",
-                  f"Tuned gains: {', '.join(f'{v:.3g}' for v in r['tuned'])} ({r['tuned_from']}); baseline "
-                  f"{', '.join(f'{v:.3g}' for v in r['baseline'])}.", "",
                   "| flown as | figure | baseline: mean (min–max) | tuned: mean (min–max) | change | not scored |",
                   "|---|---|---|---|---|---|"]
         for src in dict.fromkeys(row["source"] for row in r["rows"]):
@@ -221,14 +219,20 @@ def report(write: bool) -> str:
             change = f"{statistics.mean(t) / statistics.mean(b) - 1:+.0%}" if b and t else "–"
             what = FIGURES[src][1] if src in FIGURES else "lap-2 RMS vs the pattern (m)"
             lines.append(f"| {LABELS.get(src, src)} | {what} | {fmt(b)} | {fmt(t)} | {change} | {bad} |")
-        lines.append("")
-    body = (f"Machine: {'; '.join(sorted({r['machine'] for r in full})) or '–'}. Script: "
-            "`python scripts/bench_training_vs_flown.py --tuned X --reps 3 --speedup S` (runs in `runs.jsonl`; "
-            "the newest run with 2+ repeats per speed-up and SITL settings, the one with the most sources first). "
-            "ArduCopter SITL, calm unless the SITL settings say otherwise; each row the same gain sets flown "
-            "alternately (A B A B). Figure-8 rows: lap-2 3-D RMS of the measured position against the pattern at "
-            "each sample's own stamp (for the tuner's trials this equals its own score to 1e-6 m). Reading: "
-            "[docs/training-trial.md](../../docs/training-trial.md).\n\n" + "\n".join(lines))
+        lines += ["", f"Tuned gains: {', '.join(f'{v:.3g}' for v in r['tuned'])} ({r['tuned_from']}); baseline "
+                  f"{', '.join(f'{v:.3g}' for v in r['baseline'])}.", ""]
+    newest = shown[-1] if shown else None
+    for r in full:
+        newest = r if newest is None or r["at"] > newest["at"] else newest
+    body = (f"Machine: {newest['machine'] if newest else '–'} (newest run). Script: "
+            "`python scripts/bench_training_vs_flown.py --tuned X --reps 3 --speedup S [--set SIM_WIND_SPD=5 ...]`; "
+            "reading: `docs/training-trial.md`.\n\n" + "\n".join(lines)
+            + "\nRuns in `runs.jsonl`; shown: the newest run with 2+ repeats per speed-up and SITL settings, the one "
+            "with the most sources first. ArduCopter SITL, calm unless the SITL settings say otherwise; in each run "
+            "the two gain sets are flown alternately (A B A B) on every row. Figure-8 rows: lap-2 3-D RMS of the "
+            "measured position against the pattern at each sample's own stamp (for the tuner's trials this equals "
+            "its own score to 1e-6 m). Not scored: a trial the tuner stopped because it fell behind the vehicle "
+            "(the loaded machine), a client flight that did not finish.")
     print(body)
     if write:
         write_result("training-vs-flown", body)
