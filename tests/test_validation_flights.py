@@ -79,6 +79,9 @@ def test_three_manoeuvres_measured_live_and_from_the_tlog(copter, tmp_path, caps
     assert 26.0 / 5.0 < m["time_s"] < 60.0
     assert {"corner1_overshoot_m", "corner3_settle_s", "final_settle_s"} <= m.keys()
     assert list(map(repr, transfer.download())) == list(map(repr, stored))  # the user's mission is back (NaN yaw)
+    texts = [r.msg.text for r in read_tlog(mission.tlog) if not r.sent and r.msg.get_type() == "STATUSTEXT"]
+    # PX4 refuses Mission for a second after an upload ("temporarily rejected"): the switch was asked again
+    assert any("still checking the new mission" in t for t in texts) == (personality == "px4")
     # `ksbo-mav score` re-computes each flight's figures from its tlog; `compare` puts two flights side by side
     for kind, f in flights.items():
         capsys.readouterr()

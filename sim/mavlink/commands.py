@@ -66,6 +66,8 @@ class Commands:
             elif mode is Mode.AUTO and (f.landed or not f.mission_legs()):
                 result = self._refuse(DENIED, "Mode change to AUTO failed: no mission to fly" if not f.landed
                                       else "Mode change to AUTO failed: on the ground")
+            elif mode is Mode.AUTO and s.now_us * 1e-6 - s.mission.stored_at < s.personality.mission_check_s:
+                result = self._refuse(TEMPORARILY_REJECTED, "Mission: still checking the new mission")
             else:
                 f.set_mode(mode)
                 result = ACCEPTED

@@ -52,8 +52,10 @@ def home_item() -> Item:
 class MissionStore:
     """Mission items and the transfer state; ``send`` is the server's MAVLink object (messages go out at once)."""
 
-    def __init__(self, mav, home_item_first: bool) -> None:
+    def __init__(self, mav, home_item_first: bool, now=lambda: 0.0) -> None:
         self.mav = mav
+        self.now = now  # simulated seconds
+        self.stored_at = -1e9
         self.home_first = home_item_first
         self.items: list[Item] = [home_item()] if home_item_first else []
         self.current = self.first
@@ -122,4 +124,5 @@ class MissionStore:
         if self.home_first:
             items = [home_item()] + items[1:]  # home stays item 0, as ArduPilot keeps it
         self.items, self.current, self._incoming = items, self.first, None
+        self.stored_at = self.now()
         self.mav.mission_ack_send(*self._peer, ACCEPTED, 0)

@@ -62,6 +62,8 @@ class Personality:
     extra_caps: int = 0
     #: The stored mission keeps home as item 0 and flies from item 1 (ArduPilot); PX4 flies from item 0.
     mission_home_item: bool = True
+    #: Seconds after an upload while the mission is being checked: AUTO is "temporarily rejected" (PX4).
+    mission_check_s: float = 0.0
 
     @property
     def capabilities(self) -> int:
@@ -107,7 +109,7 @@ _PX4_NAMES = {393216: "OFFBOARD", 50593792: "AUTO.LOITER", 196608: "POSCTL", 100
 PX4 = Personality(name="px4", autopilot=MAV_AUTOPILOT_PX4, modes=_PX4_MODES, mode_names=_PX4_NAMES,
                   encoding="bytewise", px4_mode_params=True, takeoff_mode=Mode.TAKEOFF,
                   after_takeoff_mode=Mode.HOLD, vendor_id=0, flight_sw_version=(1 << 24) | (15 << 16) | 255,
-                  mission_home_item=False)
+                  mission_home_item=False, mission_check_s=1.0)
 
 #: CLI --personality values; ardupilot-legacy differs from ardupilot only in the model's parameter names.
 PERSONALITIES: dict[str, Personality] = {"ours": OURS, "ardupilot": ARDUPILOT, "ardupilot-legacy": ARDUPILOT,

@@ -93,7 +93,7 @@ class Server:
         battery, conditions = power or (None, None)
         self.power = Power(self.flight, battery, conditions, self._notify)  # (battery, conditions) or nothing
         self.telemetry = Telemetry(self.mav, self.flight, personality, product_id, self.power)
-        self.mission = MissionStore(self.mav, personality.mission_home_item)
+        self.mission = MissionStore(self.mav, personality.mission_home_item, lambda: self.now_us * 1e-6)
         self.flight.mission_legs = self.mission.legs
         self.commands = Commands(self)
         self.ftp = FtpServer(lambda payload, sysid, compid: self.mav.file_transfer_protocol_send(0, sysid, compid,

@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.errors import KsboError
+from ksbo_mav.errors import KsboError, VehicleError
+from ksbo_mav.mav.commands import CMD_SET_MODE, refusal
 from ksbo_mav.mav.monitor import Monitor
 from ksbo_mav.mav.vehicle import Vehicle
 
@@ -91,11 +92,22 @@ class ManoeuvreFrame:
         finally:
             tel.on_sample.remove(fresh.append)
 
-    def enter(self, mode: str) -> int:
+    def enter(self, mode: str, retry_s: float = 10.0) -> int:
         """Switch the vehicle to the stack's ``mode`` (confirmed by the heartbeat); returns the vehicle time then.
-        No target is streamed or kept alive in the autopilot's own modes."""
+        A switch the vehicle answers "temporarily rejected" is asked for again for up to ``retry_s`` of vehicle
+        time (PX4 refuses Mission until it has checked a mission just uploaded). No target is streamed or kept
+        alive in the autopilot's own modes."""
         v = self.v
-        v.cmd.set_mode(mode)  # (the hold target keeps streaming until the switch: PX4's OFFBOARD needs it)
+        custom = v.stack.modes[mode]
+        deadline = self.now_ms() + retry_s * 1000.0
+        while True:  # (the hold target keeps streaming until the switch: PX4's OFFBOARD needs it)
+            result, reason = v.cmd.attempt(CMD_SET_MODE, *v.stack.mode_params(custom))
+            if result == 0:
+                break
+            if result != 1 or self.now_ms() > deadline:
+                raise VehicleError(refusal(f"mode {v.stack.mode_name(custom)}", result, reason))
+            v.guided.wait(0.5)
+        v.cmd.set_mode(mode)  # accepted: wait for the heartbeat to show it
         v.guided.hold_at(None)
         return self.now_ms()
 
