@@ -229,6 +229,8 @@ class Campaign:
                             best_params=best_params, confirms=confirms, failures=failures, unused=unused,
                             accepted=accepted, accept=cfg.accept, on_vehicle=on_vehicle, method=cfg.method,
                             wall_s=wall_s, d=self.dir, ended=ended)
+        if cfg.accept and not accepted:  # the validation's refusal too, not only a failed confirmation
+            summary.accept_refused = "; ".join(failures + checked.refusals())
         write_result(self.dir, summary, v.profile, log)
         return summary
 
