@@ -57,6 +57,7 @@ def record(d: Path, stack: str, speedup: float, sensors: str, command: str, note
     val_wall = sum(e.ended_unix - e.started_unix for e in entries if e.ended_unix and e.started_unix)
     return {"stack": stack, "speedup": speedup, "sensors": sensors, "command": command, "note": note,
             "dir": str(d), "n_trials": res["n_trials"], "flights": len(trials),
+            "figure8": "on board" if any(t.get("trajectory", {}).get("on_board") for t in trials) else "streamed",
             "flights_by_label": {k: len(v) for k, v in by_label.items()},
             "outcomes": {o: sum(t["outcome"] == o for t in trials) for o in sorted({t["outcome"] for t in trials})},
             "n_unsafe": res["n_unsafe"], "n_aborted": res["n_aborted"], "n_crashed": res["n_crashed"],
@@ -82,6 +83,10 @@ def _m(xs: list[float]) -> str:
     return f"{statistics.mean(xs):.3f}" if xs else "–"
 
 
+def _change(base: list[float], cand: list[float]) -> str:
+    return f" ({statistics.mean(cand) / statistics.mean(base) - 1:+.0%})" if base and cand else ""
+
+
 def _fig(xs: list[float]) -> str:
     return (f"{statistics.mean(xs):.3g} ({min(xs):.3g}–{max(xs):.3g})" if len(xs) > 1
             else f"{xs[0]:.3g}" if xs else "–")
@@ -90,12 +95,13 @@ def _fig(xs: list[float]) -> str:
 def report(write: bool) -> str:
     runs = [json.loads(ln) for ln in RUNS.read_text().splitlines() if ln.strip()] if RUNS.exists() else []
     runs.sort(key=lambda r: (r["stack"], r["sensors"] != "SITL defaults"))  # each stack's defaults first
-    rows = ["| stack | speed | sensors | flights to result (optimiser + confirm) | search end | lap-2 RMS baseline → "
+    rows = ["| stack | speed | sensors | training figure-8 | flights to result (optimiser + confirm) | search end "
+            "| lap-2 RMS baseline → "
             "recommendation (m) | setpoints late: max (ms), share | LOCAL_POSITION_NED min (Hz) | interrupted / "
             "aborted / P<0 / crashed | validation flights (wall s) | verdict of the recommendation |",
-            "|---|---|---|---|---|---|---|---|---|---|---|"]
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     detail = ["| stack | sensors | manoeuvre | figure | baseline mean (min–max) | recommendation mean (min–max) "
-              "| verdict |", "|---|---|---|---|---|---|---|"]
+              "| change | verdict |", "|---|---|---|---|---|---|---|---|"]
     for r in runs:
         lab = r["flights_by_label"]
         opt = lab.get("baseline", 0) + lab.get("opt", 0)
@@ -108,15 +114,19 @@ def report(write: bool) -> str:
                 others.append(f"{pair}: {worst([v['verdict'] for v in judged.values()])} ({each})")
         words += "".join(f"; next candidate flown, {o}" for o in others)
         interrupted = r["n_failed"]
-        rows.append(f"| {r['stack']} | ×{r['speedup']:g} | {r['sensors']} | {r['flights']} ({opt} + "
+        rows.append(f"| {r['stack']} | ×{r['speedup']:g} | {r['sensors']} | {r.get('figure8', 'streamed')} | "
+                    f"{r['flights']} ({opt} + "
                     f"{lab.get('confirm', 0)}) | {r.get('search_end') or '–'} | {_m(r['baseline_rms'])} → "
-                    f"{_m(r['confirm_rms'])} | {r['lag_max_ms'] if r['lag_max_ms'] is not None else '–'}, "
+                    f"{_m(r['confirm_rms'])}{_change(r['baseline_rms'], r['confirm_rms'])} | "
+                    f"{r['lag_max_ms'] if r['lag_max_ms'] is not None else '–'}, "
                     f"{(r['late_fraction_max'] or 0):.1%} | {r['rate_hz_min'] or '–'} | {interrupted} / "
                     f"{r['n_aborted']} / {r['n_unsafe']} / {r['n_crashed']} | {r['validation_flights']} "
                     f"({r['validation_wall_s']:.0f}) | {words} |")
         for m, v in rec.items():
+            change = (f"{statistics.mean(v['cand']) / statistics.mean(v['base']) - 1:+.0%}"
+                      if v["base"] and v["cand"] else "–")
             detail.append(f"| {r['stack']} | {r['sensors']} | {m} | {v['metric']} | {_fig(v['base'])} | "
-                          f"{_fig(v['cand'])} | {v['verdict']} |")
+                          f"{_fig(v['cand'])} | {change} | {v['verdict']} |")
     cmds = "\n".join(f"- {r['stack']}, {r['sensors']} ({r['at']}): `{r['command']}`" + (f" — {r['note']}" if
                      r.get("note") else "") for r in runs)
     newest = max(runs, key=lambda r: r["at"])["machine"] if runs else "–"
