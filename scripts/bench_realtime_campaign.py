@@ -83,6 +83,12 @@ def _m(xs: list[float]) -> str:
     return f"{statistics.mean(xs):.3f}" if xs else "–"
 
 
+def _late(r: dict) -> str:
+    if r.get("figure8") == "on board" and r["lag_max_ms"] is None:
+        return "none streamed (on board)"
+    return f"{r['lag_max_ms'] if r['lag_max_ms'] is not None else '–'}, {(r['late_fraction_max'] or 0):.1%}"
+
+
 def _change(base: list[float], cand: list[float]) -> str:
     return f" ({statistics.mean(cand) / statistics.mean(base) - 1:+.0%})" if base and cand else ""
 
@@ -118,8 +124,7 @@ def report(write: bool) -> str:
                     f"{r['flights']} ({opt} + "
                     f"{lab.get('confirm', 0)}) | {r.get('search_end') or '–'} | {_m(r['baseline_rms'])} → "
                     f"{_m(r['confirm_rms'])}{_change(r['baseline_rms'], r['confirm_rms'])} | "
-                    f"{r['lag_max_ms'] if r['lag_max_ms'] is not None else '–'}, "
-                    f"{(r['late_fraction_max'] or 0):.1%} | {r['rate_hz_min'] or '–'} | {interrupted} / "
+                    f"{_late(r)} | {r['rate_hz_min'] or '–'} | {interrupted} / "
                     f"{r['n_aborted']} / {r['n_unsafe']} / {r['n_crashed']} | {r['validation_flights']} "
                     f"({r['validation_wall_s']:.0f}) | {words} |")
         for m, v in rec.items():
