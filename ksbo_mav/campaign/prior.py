@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Callable
 from typing import Any
 
@@ -27,9 +26,8 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
             return np.array(doc["X"]), np.array(doc["y"])
         n = prior_size(cfg, kind)
         X = local_prior_design(n, x0, bounds, cfg.seed, radius=SIM_PRIOR_RADIUS)
-        params = vehicle_params(d) if os.environ.get("KSBO_PRIOR_FIT", "0") == "1" else None
-        what, y, fit = simulated_prior(profile, X, cfg.seed, log, params, x0)
-        write_file(d.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist(), "fit": fit}))
+        what, y = simulated_prior(profile, X, cfg.seed, log)
+        write_file(d.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist()}))
         log(f"prior: {n} {what} episodes around the baseline (in process, nothing flown)")
         return X, y
     n = prior_size(cfg, kind)
@@ -41,44 +39,28 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
     return X, np.array(y)
 
 
-def simulated_prior(profile: Any, X: np.ndarray, seed: int, log: Callable[[str], None],
-                    params: dict[str, float] | None = None, x0: np.ndarray | None = None
-                    ) -> tuple[str, np.ndarray, dict[str, Any] | None]:
-    """(name of the simulator, (n,) P of each row of X (n, d), the fit or None) flown in process: the planar
-    simulator for the planar profile, our JSBSim copter for the copter profiles (the vehicle class the profile
-    names; P scored against its own flight of the baseline ``x0`` (d,), as on the vehicle), fitted to the vehicle's
-    parameter set ``params`` {name: value} when given (:mod:`ksbo_mav.simulated.vehicle_fit`). An aborted or
-    crashed episode gives the P of an abort (-0.1) so that the model sees where the simulated vehicle failed."""
+def simulated_prior(profile: Any, X: np.ndarray, seed: int, log: Callable[[str], None]) -> tuple[str, np.ndarray]:
+    """(name of the simulator, (n,) P of each row of X (n, d)) flown in process: the planar simulator for the
+    planar profile, our JSBSim copter for the copter profiles (the vehicle class the profile names; P scored
+    against its own baseline flight, as on the vehicle). An aborted or crashed episode gives the P of an abort
+    (-0.1) so that the model sees where the simulated vehicle failed."""
     from ksbo_mav.simulated.copter_objective import COPTER_PLANTS
 
     plant = next((k for k, (name, _) in COPTER_PLANTS.items() if name == profile.name), None)
     if plant is None:
         from ksbo_mav.simulated.planar_objective import SimObjective
 
-        return "simulator", SimObjective(profile, seed=seed).batch(X), None
+        return "simulator", SimObjective(profile, seed=seed).batch(X)
     from ksbo_mav.simulated.copter_objective import CopterObjective
-    from ksbo_mav.simulated.vehicle_fit import fit_vehicle
 
-    fit = None if params is None else fit_vehicle(params, COPTER_PLANTS[plant][1])
-    if fit is not None:
-        log(f"prior: our JSBSim copter fitted to the vehicle: {fit.describe()}")
-    obj = CopterObjective(plant, fit=fit, baseline=x0)
+    obj = CopterObjective(plant)
     y = []
     for k, x in enumerate(X):
         if k % 8 == 0:
             log(f"prior: simulating {k + 1}-{min(k + 8, len(X))} of {len(X)} on the JSBSim copter")
         e = obj(x)
         y.append(e.value if e.value is not None and e.outcome.value == "complete" else -0.1)
-    return "JSBSim copter", np.asarray(y, dtype=float), None if fit is None else fit.to_dict()
-
-
-def vehicle_params(d: CampaignDir) -> dict[str, float] | None:
-    """{name: value} of every parameter in the campaign's snapshot, None without a snapshot."""
-    from ksbo_mav.mav.params.snapshot import load_snapshot
-
-    if not d.snapshot.exists():
-        return None
-    return {name: value for name, (value, _type) in load_snapshot(d.snapshot).params.items()}
+    return "JSBSim copter", np.asarray(y, dtype=float)
 
 
 #: Half-widths (unit cube of the optimiser box) of the priors around the baseline: flown (``--prior local``) and

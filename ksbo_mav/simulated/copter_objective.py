@@ -24,7 +24,6 @@ from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.opt.evaluation import Evaluation, Outcome
 from ksbo_mav.profiles import Profile, load_profile
-from ksbo_mav.simulated.vehicle_fit import VehicleFit
 from ksbo_task.limit_checks import check_state
 
 #: Copter plants of the suite: name → (vehicle profile, simulator personality).
@@ -42,10 +41,7 @@ class CopterObjective:
         rms_ref: lap-2 RMS (m) of the baseline; n_flights: flights flown so far.
     """
 
-    def __init__(self, plant: str = "copter3d-ardupilot", fit: VehicleFit | None = None,
-                 baseline: np.ndarray | None = None) -> None:
-        """``fit``: our copter fitted to a vehicle (its loops, limits and hover thrust), None for the F450 as built;
-        ``baseline`` (d,): the gains P is scored against (None: the profile's defaults)."""
+    def __init__(self, plant: str = "copter3d-ardupilot") -> None:
         from ksbo_sim.copter3d import Copter3D
 
         try:
@@ -55,16 +51,10 @@ class CopterObjective:
         self.plant = plant
         self.profile: Profile = load_profile(profile_name)
         self.vehicle = Copter3D(personality)
-        self.fit = fit
-        if fit is not None:
-            if fit.personality != personality:
-                raise ValueError(f"{plant}: a fit to a {fit.personality} vehicle does not apply to {personality}")
-            for name, value in fit.sim_params.items():
-                self.vehicle.set_param(name, value)
         self.figure = Mission.from_profile(self.profile).figure8h  # the campaign's mission, lead-in included
         self.limits = limits_from_profile(self.profile)
         self.ratio = float(self.profile.score_spec.unsafe_rms_ratio)
-        self.baseline = np.asarray(self.profile.default if baseline is None else baseline, dtype=float)
+        self.baseline = np.asarray(self.profile.default, dtype=float)
         self.bounds = opt_bounds(self.profile, self.baseline)
         self.n_flights = 0
         self.rms_ref = math.nan
