@@ -37,9 +37,8 @@ import numpy as np
 os.environ.setdefault("MAVLINK20", "1")
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parent / "tests"))
 from _bench_common import BENCH, append_record, machine, write_result  # noqa: E402
-from sitl_instances import start_claimed  # noqa: E402
+from ksbo_sim.sitl_instances import start_claimed  # noqa: E402
 
 from ksbo_mav.campaign.mission_rate import check_link  # noqa: E402
 from ksbo_mav.campaign.onboard import guard_link_timeout  # noqa: E402

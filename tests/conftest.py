@@ -12,7 +12,7 @@ if "PYTEST_XDIST_WORKER" in os.environ or "KSBO_MAV_CACHE_DIR" not in os.environ
 import pytest  # noqa: E402
 
 from ksbo_sim.sitl import SitlNotFound  # noqa: E402
-from sitl_instances import release_stopped, start_claimed  # noqa: E402
+from ksbo_sim.sitl_instances import release_stopped, start_claimed  # noqa: E402
 
 
 def sitl_or_skip(kind: str, speedup: float, **kw):

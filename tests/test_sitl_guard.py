@@ -13,7 +13,7 @@ from __future__ import annotations
 import pytest
 from conftest import sitl_or_skip
 from guard_helpers import Observer, assert_baseline, start_tuner, stop
-from sitl_instances import release_stopped
+from ksbo_sim.sitl_instances import release_stopped
 
 from ksbo_mav.mav.guard_script import (
     GUARD_PARAMS,

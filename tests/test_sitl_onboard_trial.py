@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 from conftest import sitl_or_skip
 from onboard_helpers import fly_pair_of_trials, sent_setpoints, short_mission
-from sitl_instances import release_stopped
+from ksbo_sim.sitl_instances import release_stopped
 
 from ksbo_mav.mav.guard_script import GUARD_PARAMS, config_for, figure8_for, new_config_id
 from ksbo_mav.mav.link import Endpoint

@@ -5,7 +5,7 @@ Every SITL link is loopback, which the rule counts as beside the vehicle. The re
 meets one: the link emulator (``ksbo_sim.linkemu``) runs as a SiK telemetry radio pair between the SITL and the
 tool, and its ground radio reports itself with RADIO_STATUS, exactly the evidence the rule reads on a real radio.
 (``--link-is-radio`` would only test that a flag is obeyed.) The SITL comes from the ``px4_sitl`` fixture, on an
-instance number claimed machine-wide (``tests/sitl_instances.py``)."""
+instance number claimed machine-wide (``ksbo_sim.sitl_instances``)."""
 
 from __future__ import annotations
 

@@ -1,13 +1,12 @@
 """Diagnostic: the validation manoeuvres flown with a SITL's own (baseline) gains, repeated, and their figures.
 
-Starts an ArduCopter or PX4 SITL (a fresh one, on the first instance number from ``--instance`` on that no other
-process holds: the same lock files as the tests' registry, ``$TMPDIR/ksbo-sitl-instances/KIND-N.lock``), takes
-off, flies the
-position steps, the autopilot's hold and the AUTO / Mission box (``ksbo_mav.mav.validation``) ``--repeats`` times
-in turn, lands, and prints each flight's headline figures and their mean and spread as a Markdown table (``--json``
-for every figure). The bench settings it needs are the ones docs/sitl.md gives: PX4 ``COM_RCL_EXCEPT 4``;
-ArduCopter's sticks centred on its RC input port once airborne (LOITER flies them). ``--wind`` sets ArduCopter's
-``SIM_WIND_SPD`` (from the north, turbulence 1).
+Starts an ArduCopter or PX4 SITL (a fresh one, on an instance number no other process holds:
+``ksbo_sim.sitl_instances``, the registry the tests use), takes off, flies the position steps, the autopilot's
+hold and the AUTO / Mission box (``ksbo_mav.mav.validation``) ``--repeats`` times in turn, lands, and prints each
+flight's headline figures and their mean and spread as a Markdown table (``--json`` for every figure). The bench
+settings it needs are the ones docs/sitl.md gives: PX4 ``COM_RCL_EXCEPT 4``; ArduCopter's sticks centred on its
+RC input port once airborne (LOITER flies them). ``--wind`` sets ArduCopter's ``SIM_WIND_SPD`` (from the north,
+turbulence 1).
 
     python scripts/diag/validation_baseline.py ardupilot --speed 10 [--wind 5] [--sizes quick]
     python scripts/diag/validation_baseline.py px4 --speed 1 --steps-m 3
@@ -30,33 +29,15 @@ FIGURES = {"steps": ("rise_s_mean", "overshoot_pct_mean", "settle_s_mean"),
            "auto_mission": ("xtrack_rms_m", "xtrack_max_m", "corner_overshoot_m_mean", "time_s")}
 
 
-def claim(kind: str, first: int) -> tuple[int, int]:
-    """(instance number, lock fd) of the first number from ``first`` (up to 9) nobody holds."""
-    import fcntl
-    import os
-
-    folder = Path(tempfile.gettempdir()) / "ksbo-sitl-instances"
-    folder.mkdir(exist_ok=True)
-    for n in range(first, 10):
-        fd = os.open(folder / f"{kind}-{n}.lock", os.O_CREAT | os.O_RDWR, 0o666)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return n, fd
-        except BlockingIOError:
-            os.close(fd)
-    raise SystemExit(f"every {kind} SITL instance from {first} to 9 is in use")
-
-
-def fly(kind: str, speed: float, first: int, wind: float, sizes: str, repeats: int, steps_m: float,
+def fly(kind: str, speed: float, wind: float, sizes: str, repeats: int, steps_m: float,
         out_dir: Path) -> dict[str, list[dict[str, float]]]:
     from ksbo_mav.mav.link import Endpoint
     from ksbo_mav.mav.monitor import Monitor, limits_from_profile
     from ksbo_mav.mav.validation import ManoeuvreSpec, fly_manoeuvre
     from ksbo_mav.mav.vehicle import Vehicle
-    from ksbo_sim.sitl import start_sitl
+    from ksbo_sim.sitl_instances import start_claimed
 
-    instance, _lock = claim(kind, first)  # held until this process ends
-    sitl = start_sitl(kind, instance, speed)
+    sitl = start_claimed(kind, speed)  # an instance number no other process holds
     got: dict[str, list[dict[str, float]]] = {}
     try:
         if kind == "px4":
@@ -73,7 +54,7 @@ def fly(kind: str, speed: float, first: int, wind: float, sizes: str, repeats: i
             v.ensure_airborne()
             if kind == "ardupilot":  # LOITER flies the sticks: centre them (after arming: a centred throttle blocks it)
                 with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-                    s.sendto(struct.pack("<16H", *([1500] * 4 + [0] * 12)), ("127.0.0.1", 5501 + 10 * instance))
+                    s.sendto(struct.pack("<16H", *([1500] * 4 + [0] * 12)), ("127.0.0.1", 5501 + 10 * sitl.instance))
             offsets = [[steps_m, 0, 0], [0, steps_m, 0], [0, 0, -2]]
             for r in range(repeats):
                 for m in FIGURES:
@@ -108,7 +89,6 @@ def main() -> None:
     p.add_argument("kind", choices=("ardupilot", "px4"))
     p.add_argument("--speed", type=float, default=1.0, help="SITL speed-up (PX4 above 2 drops OFFBOARD on a busy "
                                                             "machine)")
-    p.add_argument("--instance", type=int, default=5, help="the first SITL instance number to try (up to 9)")
     p.add_argument("--wind", type=float, default=0.0, help="ArduCopter SIM_WIND_SPD (m/s, from the north)")
     p.add_argument("--sizes", choices=("quick", "full"), default="full")
     p.add_argument("--repeats", type=int, default=2)
@@ -118,7 +98,7 @@ def main() -> None:
     a = p.parse_args()
     out = Path(a.out or tempfile.mkdtemp(prefix="validation-baseline-"))
     out.mkdir(parents=True, exist_ok=True)
-    got = fly(a.kind, a.speed, a.instance, a.wind, a.sizes, a.repeats, a.steps_m, out)
+    got = fly(a.kind, a.speed, a.wind, a.sizes, a.repeats, a.steps_m, out)
     print(json.dumps(got, indent=1) if a.json else "\n".join(table(got)))
     print(f"tlogs: {out}")
 
