@@ -133,6 +133,8 @@ def run_one(plant: str, method: str, seed: int, mode: str, budget: int, n_prior:
         "wall_s": wall, "orders": list(r.orders or ()), "reselection_changes": r.info.get("reselection_changes"),
         "stopped": r.info.get("stopped"), "kinds": [p["kind"] for p in props],
         "first_unsafe_at": [i for i, v in enumerate(r.y) if v < 0][:10],
+        "stop": ({k: r.info["stop"][k] for k in ("stopped", "after", "saved", "min_evals", "patience", "ratio")}
+                 if "stop" in r.info else None),  # the stopping rule (--opt early_stop=true)
     }
     if hasattr(obj, "rms_ref"):  # copter: the re-flown recommendation's RMS change against the baseline
         rec["rms_ref"] = obj.rms_ref

@@ -47,7 +47,7 @@ def vehicle(a: argparse.Namespace):
 
         from ksbo_sim.sitl import start_sitl
 
-        sitl = start_sitl(a.stack, instance=a.instance, speedup=SPEED[a.stack])
+        sitl = start_sitl(a.stack, instance=a.instance, speedup=a.speedup or SPEED[a.stack])
         try:
             if a.stack == "px4":
                 sitl.set_param("COM_RCL_EXCEPT", 4, int32=True)  # no RC in SITL: allow OFFBOARD without it
@@ -78,10 +78,21 @@ def best_so_far(entries: list[dict], names: list[str]) -> list[tuple[int, dict[s
     return out
 
 
+def recorded_gains(a: argparse.Namespace) -> dict[str, float]:
+    """The recommendation of the run labelled ``a.reference_label`` on this vehicle and condition, from
+    runs.jsonl (the long campaigns' directories are temporary; their gains are on record)."""
+    for line in reversed(OUT.read_text().splitlines()):
+        r = json.loads(line)
+        if (r.get("label") == a.reference_label and r["stack"] == a.stack and r["wind_mps"] == a.wind
+                and r["turb"] == a.turb and r.get("best_values")):
+            return r["best_values"]
+    raise SystemExit(f"no run labelled {a.reference_label!r} for {a.stack} wind {a.wind} in {OUT}")
+
+
 def run(a: argparse.Namespace) -> dict:
     d = Path(tempfile.mkdtemp(prefix="bench-short-")) / "campaign"
     rec: dict = {"stack": a.stack, "wind_mps": a.wind, "turb": a.turb, "seed": a.seed, "tune_args": a.tune,
-                 "reference": a.reference}
+                 "reference": a.reference or (f"label {a.reference_label}" if a.reference_label else None)}
     with vehicle(a) as (args, ep):
         t0 = time.time()
         r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *args, "--seed", str(a.seed),
@@ -99,7 +110,7 @@ def run(a: argparse.Namespace) -> dict:
         rec["unsafe"] = sum(e["kind"] == "opt" and e["P"] < 0 for e in entries)
         rec["aborted"] = sum(e["outcome"] in ("aborted", "crashed") for e in entries)  # by the gains
         rec["interrupted"] = sum(e["kind"] == "failed" for e in entries)  # the vehicle, link or computer
-        cands = best_so_far(entries, names)[-N_CANDIDATES:]
+        cands = best_so_far(entries, names)[-a.candidates:] if a.candidates else []
         rec["candidates"] = [(k, round(rms, 4)) for k, _, rms in cands]
         gains = {"rec": best["values"], **{f"f{k}": g for k, g, _ in cands}}
         for k in a.refly_after:  # the best flown gains after flight k, whether or not among the last changes
@@ -108,8 +119,18 @@ def run(a: argparse.Namespace) -> dict:
                 gains[f"after{k}"] = upto[-1]
         if a.reference:
             gains["long"] = json.loads((Path(a.reference) / "result.json").read_text())["best"]["values"]
-        rec["reflown"] = refly_in_turn(d, ep, gains)
+        elif a.reference_label:
+            gains["long"] = recorded_gains(a)
+        rec["search_end"] = json.loads((d / "result.json").read_text()).get("search_end")
+        try:
+            rec["reflown"] = refly_in_turn(d, ep, gains)
+        except Exception as exc:  # noqa: BLE001 - the campaign's own figures are kept; the re-flights are said lost
+            rec["error"] = f"re-flights: {type(exc).__name__}: {str(exc)[:300]}"
+            rec["speedup"] = a.speedup
+            return rec
+        rec["candidates_reflown"] = a.candidates
         rec["best_values"] = best["values"]
+    rec["speedup"] = a.speedup or SPEED.get(a.stack)
     m = {k: statistics.mean(v) for k, v in rec["reflown"].items()}
     rec["cut"] = 1 - m["rec"] / m["baseline"]
     if "long" in m:
@@ -134,11 +155,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--stack", choices=("ardupilot", "px4", "copter3d"), default="ardupilot")
     ap.add_argument("--reference", help="the long campaign whose recommendation is 100 %%")
+    ap.add_argument("--reference-label", help="the long campaign by its label in runs.jsonl (its recorded gains)")
+    ap.add_argument("--candidates", type=int, default=N_CANDIDATES,
+                    help="best-so-far gains re-flown besides B, L, R (0: none; flights to 90 %% then from R)")
     ap.add_argument("--label", default="", help="a name for the configuration (the report groups by it)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--wind", type=float, default=0.0, help="SITL: SIM_WIND_SPD (m/s)")
     ap.add_argument("--turb", type=float, default=0.0, help="SITL: SIM_WIND_TURB")
     ap.add_argument("--instance", type=int, default=3, help="SITL instance (PX4: 0..9)")
+    ap.add_argument("--speedup", type=float, default=0.0,
+                    help="SITL speed-up (0: ArduCopter 10, PX4 5); lower on a loaded machine")
     ap.add_argument("--sim-set", action="append", default=[], metavar="NAME=VALUE",
                     help="our JSBSim copter: a parameter set at start (ksbo-mav sim --set), e.g. MOT_THST_HOVER=0.5")
     ap.add_argument("--refly-after", type=lambda t: [int(k) for k in t.split(",")], default=[], metavar="K,K",

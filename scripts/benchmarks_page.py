@@ -193,8 +193,16 @@ def plant_suite() -> str:
 
 
 def sections() -> dict[str, str]:
-    """Every section of the page by benchmark name, in reading order."""
-    return {"plant_suite": plant_suite(), **{name: markdown_section(name) for name in MARKDOWN_OUTPUTS}}
+    """Every section of the page by benchmark name, in reading order (the stopping rule after the one-battery
+    campaigns it shortens)."""
+    from _bench_early_stop import section as early_stop  # a sibling script module
+
+    out = {"plant_suite": plant_suite()}
+    for name in MARKDOWN_OUTPUTS:
+        out[name] = markdown_section(name)
+        if name == "short_campaign":
+            out["early_stop"] = early_stop()
+    return out
 
 
 def build() -> str:
