@@ -15,8 +15,8 @@ from ksbo_mav.campaign.config import MissionRate
 from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.campaign.settings import MISSION_RATES_HZ
 from ksbo_mav.errors import PreflightError, VehicleError
-from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, probe_uplink,
-                                    quiet_other_streams, verdict)
+from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, needed_streams,
+                                    probe_uplink, quiet_other_streams, verdict)
 from ksbo_mav.mav.vehicle import Vehicle
 
 
@@ -30,6 +30,10 @@ MAX_LOSS_REDUCED = 0.10
 FRAME_BYTES = 65
 #: Seconds to wait for the position estimate before the link is measured (GPS lock and EKF origin on the ground).
 POSITION_WAIT_S = 90.0
+#: Rounds of quieting the streams the campaign does not use, while the link loses frames: (streams the vehicle
+#: sends faster than this, Hz; are asked for this rate, Hz). Twice once a second (streams the first round made room
+#: for arrive faster after it), then once every five seconds when the link is still full.
+QUIET_ROUNDS = ((1.1, 1.0), (1.1, 1.0), (0.3, 0.2))
 
 
 def _judge(v: Vehicle, seconds: float) -> tuple[LinkFigures, str | None]:
@@ -106,22 +110,14 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     fig, why = _judge(v, seconds)
     log(f"link: {fig.describe()}" + (f" (the mission needs {judged_stream(fig)} at {asked} Hz)"
                                      if judged(fig) else ""))
-    for _ in range(2):  # twice: streams the first round made room for may arrive faster after it
-        full = why or fig.loss > MAX_LOSS_REDUCED
-        quieted = quiet_other_streams(v.cmd, fig) if full else []
-        if not quieted:
-            break
-        # the vehicle's own streams fill the link: make room (before lowering the mission's rate)
-        log(f"link: asked the vehicle to send {', '.join(quieted)} once a second on this link (not used by the "
-            "campaign; a reboot restores them)")
-        fig, why = _judge(v, 2 * seconds)
-        log(f"link: {fig.describe()}")
+    fig, why = _make_room(v, fig, why, seconds, log)
     if why and reduce:
         log(why.split("; nothing was written")[0].split(": use ")[0] + ": trying lower mission rates")
         for rate in (r for r in REDUCED_RATES_HZ if r < asked):
             v.set_mission_rate(rate)
             fig2, why2 = _judge(v, 2 * seconds)  # a longer look: a rate kept must hold, not just pass once
             log(f"link: at {rate} Hz: {fig2.describe()}")
+            fig2, why2 = _make_room(v, fig2, why2, seconds, log)  # what a lower rate leaves may show more
             if why2 is None and fig2.loss <= MAX_LOSS_REDUCED:
                 log(f"link: flying at {rate} Hz instead of {asked} Hz (setpoints with velocity and acceleration "
                     f"feed-forward, telemetry at {rate} Hz): the link carries it ({fig2.describe()})")
@@ -132,6 +128,26 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     if why:
         raise PreflightError(why)
     return fig
+
+
+def _make_room(v: Vehicle, fig: LinkFigures, why: str | None, seconds: float,
+               log: Callable[[str], None]) -> tuple[LinkFigures, str | None]:
+    """While the link is full (a verdict against it, or more than :data:`MAX_LOSS_REDUCED` of the vehicle's frames
+    lost), quiet the streams the campaign does not use by :data:`QUIET_ROUNDS`, judged by what the vehicle sends
+    (its sequence numbers), not by what of it happened to arrive, and measure again; the last figures."""
+    for above_hz, to_hz in QUIET_ROUNDS:
+        if not (why or fig.loss > MAX_LOSS_REDUCED):
+            break
+        quieted = quiet_other_streams(v.cmd, fig, above_hz, to_hz, needed_streams(v.mission.kind))
+        if not quieted:
+            continue
+        every = "once a second" if to_hz == 1.0 else f"once every {1 / to_hz:g} s"
+        log(f"link: the vehicle sends about {fig.sent_bytes_per_s / 1000:.1f} kB/s, {fig.bytes_per_s / 1000:.1f} "
+            f"arrive ({fig.loss:.0%} of its frames lost by sequence number): asked it to send {', '.join(quieted)} "
+            f"{every} on this link (not used by the campaign; no parameter changed, a reboot restores them)")
+        fig, why = _judge(v, 2 * seconds)
+        log(f"link: {fig.describe()}")
+    return fig, why
 
 
 def record_link(d: CampaignDir, fig: LinkFigures, on_link_loss: str | None = None) -> None:

@@ -40,6 +40,17 @@ class LinkFigures:
     def to_dict(self) -> dict[str, Any]:
         return {k: (round(v, 3) if isinstance(v, float) else v) for k, v in asdict(self).items()}
 
+    def sent_hz(self, name: str) -> float:
+        """How often the vehicle *sends* ``name``, estimated: what arrived, scaled by the share of the vehicle's
+        frames its sequence numbers say were lost (a full link drops the frames of every stream alike). On a link
+        that loses most frames a stream sent at 4 Hz arrives at 1 Hz; judged by arrival it would look quiet."""
+        return self.rates_hz.get(name, 0.0) / max(1.0 - self.loss, 0.05)
+
+    @property
+    def sent_bytes_per_s(self) -> float:
+        """What the vehicle sends toward us per second, estimated as :meth:`sent_hz` (bytes)."""
+        return self.bytes_per_s / max(1.0 - self.loss, 0.05)
+
     def describe(self) -> str:
         name = "LOCAL_POSITION_NED" if self.rates_hz.get("LOCAL_POSITION_NED", 0.0) > 0 else "ATTITUDE"
         lpn = self.rates_hz.get(name, 0.0)
@@ -170,20 +181,28 @@ NEEDED = frozenset({"LOCAL_POSITION_NED", "ATTITUDE", "ACTUATOR_OUTPUT_STATUS", 
                     "RADIO_STATUS", "FILE_TRANSFER_PROTOCOL", "AUTOPILOT_VERSION", "EXTENDED_SYS_STATE"})
 
 
-def quiet_other_streams(cmd: Commander, fig: LinkFigures, above_hz: float = 1.1) -> list[str]:
-    """Ask the vehicle to send each stream the campaign does not use, and that arrived faster than ``above_hz``,
-    once a second (SET_MESSAGE_INTERVAL on this link only; a reboot restores the vehicle's own rates, and a ground
-    station sharing the link still gets them, slowly). Returns the names asked. PX4's default streams alone fill a
-    4 kB/s radio, and PX4 shares a link's budget among its streams in proportion to the rates asked of them: one
-    arriving at 1.5 Hz may be asked for 10 Hz and take that share from the mission's stream, so anything faster
+def needed_streams(mission_kind: str) -> frozenset[str]:
+    """:data:`NEEDED` for a mission of ``mission_kind``: ACTUATOR_OUTPUT_STATUS (136 bytes a frame; PX4 streams it
+    at several Hz on a radio link) is read by the planar task (figure8-xz) only."""
+    return NEEDED if mission_kind == "figure8-xz" else NEEDED - {"ACTUATOR_OUTPUT_STATUS"}
+
+
+def quiet_other_streams(cmd: Commander, fig: LinkFigures, above_hz: float = 1.1, to_hz: float = 1.0,
+                        needed: frozenset[str] = NEEDED) -> list[str]:
+    """Ask the vehicle to send each stream the campaign does not use, and that it *sends* faster than ``above_hz``
+    (:meth:`LinkFigures.sent_hz`: by sequence numbers, not by what happened to arrive), at ``to_hz``
+    (SET_MESSAGE_INTERVAL on this link only: no parameter changes, a reboot restores the vehicle's own rates, and a
+    ground station sharing the link still gets them, slowly). Returns the names asked. PX4's default streams alone
+    fill a 4 kB/s radio, and PX4 shares a link's budget among its streams in proportion to the rates asked of them:
+    one arriving at 1.5 Hz may be asked for 10 Hz and take that share from the mission's stream, so anything faster
     than about once a second is asked down."""
     asked = []
-    for name, hz in sorted(fig.rates_hz.items()):
+    for name in sorted(fig.rates_hz):
         msg_id = getattr(mavlink, f"MAVLINK_MSG_ID_{name}", None)
-        if name in NEEDED or hz <= above_hz or msg_id is None:
+        if name in needed or fig.sent_hz(name) <= above_hz or msg_id is None:
             continue
         try:
-            cmd.set_interval(msg_id, 1e6)
+            cmd.set_interval(msg_id, 1e6 / to_hz)
         except VehicleError:  # unanswered on a full link: the next measurement tells whether it took
             pass
         asked.append(name)
