@@ -24,6 +24,7 @@ from ksbo_mav.campaign.drift import ConditionWatch
 from ksbo_mav.campaign.ending import end_flight, rewrite_report, safe_stop
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir, write_file
+from ksbo_mav.campaign.onboard import install_guard, remove_guard
 from ksbo_mav.campaign.validation import ValidationFlights, ValidationPlan, candidates_from
 from ksbo_mav.campaign.verdict import PairVerdict, best_not_worse, refusal
 from ksbo_mav.errors import InputError, KsboError
@@ -116,8 +117,8 @@ def fly(v: Vehicle, d: CampaignDir, plan: ValidationPlan, base: dict[str, float]
     if guard is not None:
         guard.resume_hint = hint
     if v.guard is not None:
-        log("validation: the onboard guard is not armed for these flights (it would take the autopilot's own hold "
-            "and AUTO modes for a pilot's take-over); the monitor and the autopilot's failsafes watch them")
+        log("validation: the onboard guard watches every flight (GUIDED and the hold or AUTO mode the flight switches "
+            "to are the tool's; any other mode is a pilot's)")
     flights = ValidationFlights(v, base, d, plan, guard, log, conditions=conditions)
     verdicts = flights.run(x0, best, candidates_from(journal, x0, best, plan.candidates))
     return ValidationReport(verdicts, flights.stopped)
@@ -151,6 +152,7 @@ def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None 
         home = _home_gains(v, d, snap.baseline(), result["best"]["values"], log)
         flown = ((settings.get("mission") or {}).get("rate_hz"))
         fly_at(v, MissionRate(int(flown or v.mission.rate_hz), lowerable=False), log)
+        install_guard(v, cfg.onboard_guard, home, cfg.safety, log)  # its baseline: the gains put back after each
         where = _where(endpoint)
         rep = fly(v, d, plan, home, Journal(d.journal), x0, best,
                   BatteryGuard(v, f"ksbo-mav validate {d.root} {where}"), ConditionWatch(v),
@@ -168,6 +170,7 @@ def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None 
                 end_flight(v, end, True, log)
         raise
     finally:
+        remove_guard(v, log)
         v.close()
     for line in rep.lines():
         log(line)

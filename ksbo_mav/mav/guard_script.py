@@ -16,6 +16,10 @@ trial goes wrong while the tuner cannot act. The protocol, all of it:
   vehicle time of the figure-8's t = 0 (``time_boot_ms`` modulo 2^24, exact in a float; -1 until it started).
   It then flies the figure-8 to its end, holds the end point, and trips on a tracking error past its limit too.
   Leaving the armed state (the tuner's 0, a trip) ends it; the guard puts both back.
+* ``KSG_MODES`` (script parameter): the flight modes the tuner itself switches to during the next armed flight,
+  besides GUIDED (a validation flight's LOITER hold or AUTO mission), as a bit mask of ArduCopter custom modes
+  (:func:`modes_mask`), written before ``KSG_STATE`` = 1. The guard reads it when it arms and puts it back to 0
+  when the armed flight ends, so a trial it was not written for is GUIDED only. Any other mode is a pilot's.
 
 What the guard must know (the gains and their baseline values, the limits, the modes) is written into the script
 itself before upload, between the ``KSBO_CONFIG_BEGIN``/``END`` markers: nothing but ``KSG_STATE`` changes during
@@ -36,9 +40,10 @@ from ksbo_mav.errors import InputError
 SCRIPT_NAME = "ksbo_guard.lua"
 STATE_PARAM, TRIP_PARAM = "KSG_STATE", "KSG_TRIP"
 FIGURE8_PARAM, T0_PARAM = "KSG_F8", "KSG_T0"
+MODES_PARAM = "KSG_MODES"
 ALIVE_NAME, CONFIG_NAME = "KSG_ALIVE", "KSG_CFG"
 #: Everything the guard adds to the parameter list, with the value it is left at.
-GUARD_PARAMS = {STATE_PARAM: 0.0, TRIP_PARAM: 0.0, FIGURE8_PARAM: 0.0, T0_PARAM: -1.0}
+GUARD_PARAMS = {STATE_PARAM: 0.0, TRIP_PARAM: 0.0, FIGURE8_PARAM: 0.0, T0_PARAM: -1.0, MODES_PARAM: 0.0}
 #: Box limits past this are written as this: Lua reads the number, and "unbounded" needs no special case.
 _UNBOUNDED = 1.0e6
 
@@ -52,6 +57,18 @@ class GuardState(IntEnum):
 
 TRIP_REASONS = {0: "none", 1: "tuner link lost", 2: "box", 3: "tilt", 4: "pilot mode change",
                 5: "disarmed", 6: "no position estimate", 7: "tracking error"}
+#: ``KSG_MODES`` holds a bit per custom mode below this (a float holds every integer below 2^24 exactly).
+MODES_LIMIT = 24
+
+
+def modes_mask(modes: Any) -> float:
+    """``KSG_MODES`` for the custom modes ``modes`` (ArduCopter numbering, each below :data:`MODES_LIMIT`)."""
+    mask = 0
+    for m in set(int(m) for m in modes):
+        if not 0 <= m < MODES_LIMIT:
+            raise InputError(f"onboard guard: custom mode {m} cannot be declared the tuner's own (0..23 only)")
+        mask |= 1 << m
+    return float(mask)
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ their defaults, deletes the file and restarts the scripts: the parameters leave 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 from ksbo_mav.errors import InputError, VehicleError
@@ -27,12 +27,14 @@ from ksbo_mav.mav.guard_script import (
     ALIVE_NAME,
     CONFIG_NAME,
     GUARD_PARAMS,
+    MODES_PARAM,
     SCRIPT_NAME,
     STATE_PARAM,
     TRIP_PARAM,
     TRIP_REASONS,
     GuardConfig,
     GuardState,
+    modes_mask,
     render_script,
 )
 from ksbo_mav.mav.link import Link
@@ -94,7 +96,7 @@ class OnboardGuard:
 
     def trip_code(self) -> int:
         """``KSG_TRIP`` read fresh from the vehicle (:data:`TRIP_REASONS`)."""
-        return int(self._read(TRIP_PARAM))
+        return int(self.read(TRIP_PARAM))
 
     def trip_reason(self) -> str:
         return TRIP_REASONS.get(self.trip_code(), "unknown")
@@ -117,11 +119,13 @@ class OnboardGuard:
         if name not in self.params.table:
             self.params.table[name] = Param(name, 0.0, mavlink.MAV_PARAM_TYPE_REAL32, -1)
 
-    def _read(self, name: str) -> float:
+    def read(self, name: str) -> float:
+        """One of the guard's parameters (``KSG_*``, :mod:`ksbo_mav.mav.guard_script`), read fresh."""
         self._learn(name)
         return self.params.read(name)
 
-    def _write(self, name: str, value: float) -> None:
+    def write(self, name: str, value: float) -> None:
+        """Write one of the guard's parameters, verified by the vehicle's echo."""
         self._learn(name)
         self.params.set_verified(name, value)
 
@@ -190,15 +194,20 @@ class OnboardGuard:
             self.link.pump(0.05)
         return self.alive_state
 
-    def arm_trial(self) -> None:
-        """Arm the guard for a trial (airborne, in GUIDED, baseline gains still on the vehicle or not): it watches
-        until :meth:`disarm_trial`. :class:`GuardUnavailable` with the guard's reason when it refuses or is
-        silent."""
+    def arm_trial(self, own_modes: Iterable[int] = ()) -> None:
+        """Arm the guard for a trial or a validation flight (airborne, in GUIDED, baseline gains still on the
+        vehicle or not): it watches until :meth:`disarm_trial`. ``own_modes``: the custom modes the tuner itself
+        switches to during this flight besides GUIDED (a validation flight's LOITER or AUTO), which the guard must
+        not take for a pilot's (``KSG_MODES``, put back to 0 by the guard when the flight ends).
+        :class:`GuardUnavailable` with the guard's reason when it refuses or is silent."""
         if not self.answering():
             raise GuardUnavailable("the onboard guard is not answering (no KSG_ALIVE of this campaign's "
                                    "configuration): not flying a trial without it")
+        own = tuple(own_modes)
+        if own:
+            self.write(MODES_PARAM, modes_mask(own))
         self.alive_state = None
-        self._write(STATE_PARAM, float(GuardState.ARMED))
+        self.write(STATE_PARAM, float(GuardState.ARMED))
         got = self._wait_state({GuardState.ARMED, GuardState.REFUSED})
         if got != GuardState.ARMED:
             raise GuardUnavailable(f"the onboard guard did not arm the trial ({self.last_text() or got})")
@@ -206,7 +215,7 @@ class OnboardGuard:
     def disarm_trial(self) -> GuardState | None:
         """End the trial's watch; returns the state the guard was in (TRIPPED: it acted, see :meth:`trip_reason`)."""
         was = self.alive_state
-        self._write(STATE_PARAM, float(GuardState.IDLE))
+        self.write(STATE_PARAM, float(GuardState.IDLE))
         self._wait_state({GuardState.IDLE})
         return was
 
@@ -216,7 +225,7 @@ class OnboardGuard:
         the GCS system id back. Each step is tried even when an earlier one failed; the first failure is raised."""
         first: Exception | None = None
         steps: list[tuple[str, Callable[[], Any]]] = [
-            (name, lambda n=name, v=value: self._write(n, v)) for name, value in GUARD_PARAMS.items()
+            (name, lambda n=name, v=value: self.write(n, v)) for name, value in GUARD_PARAMS.items()
         ] if self._params_present() else []
         steps.append(("script", self._remove_script))
         if self.gcs_sysid_param is not None:

@@ -40,10 +40,10 @@ def start(v: Vehicle) -> int:
     """Ask the armed guard to fly the figure-8 and return the vehicle time (ms) of its t = 0."""
     guard = v.guard
     v.guided.hold_at(None)  # our hold targets would fight the script's: the vehicle keeps the last one meanwhile
-    guard._write(FIGURE8_PARAM, 1.0)
+    guard.write(FIGURE8_PARAM, 1.0)
     deadline = time.monotonic() + START_WAIT_S
     while time.monotonic() < deadline:
-        t0 = guard._read(T0_PARAM)
+        t0 = guard.read(T0_PARAM)
         if t0 >= 0:
             now = max(int(v.telemetry.clock.last_ms), int(t0))
             return full_t0(t0, now)

@@ -22,12 +22,11 @@ import numpy as np
 
 from ksbo_mav.errors import KsboError, LinkLost
 from ksbo_mav.mav.approach import Approach
-from ksbo_mav.mav.guard_script import GuardState
 from ksbo_mav.mav.monitor import Monitor
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.errors import VerifyError
 from ksbo_mav.mav.tlog import TlogWriter
-from ksbo_mav.mav import link_return, onboard_trial
+from ksbo_mav.mav import guard_trip, link_return, onboard_trial
 from ksbo_mav.mav.trajectory import TrialRecorder, after_text, board_text, end_text, ref_text, start_text
 from ksbo_mav.mav.vehicle import Vehicle
 
@@ -129,11 +128,15 @@ class TrialFlight:
             except KsboError as exc:
                 outcome, message, L = T.ERROR, str(exc), self._steps(rec)
             # The guard's watch ends before our own recovery (it must not fight it); after a lost link, once the
-            # link is back (the restore waits for it).
-            guard_note = self._disarm_guard() if outcome is not T.LINK else ""
+            # link is back (the restore waits for it). A mode change that is the guard's own stop for the gains'
+            # breach is that breach, not a pilot's.
+            guard_note, trip = guard_trip.end_watch(v) if outcome is not T.LINK else ("", None)
+            outcome, message = guard_trip.classify(v, outcome, message, trip)
             restored, late = self._finish(rec, outcome, L, v.gain_map.to_params(x))
             if outcome is T.LINK:
                 guard_note, back = self._after_link(restored)
+            elif restored:
+                guard_note = self._take_back(trip, guard_note)
             if late is not None:  # the vehicle crashed right after the trial, as the baseline took over
                 outcome, message = late
             if guard_note:
@@ -150,7 +153,7 @@ class TrialFlight:
         the guard did for the lost link, and say what happened on the vehicle. Returns (the trial's note, whether
         the campaign may go on)."""
         found = self._returned
-        note = self._disarm_guard()
+        note, _ = guard_trip.end_watch(self.vehicle)
         if found is None:  # the link did not come back in time
             return note, False
         note = found.text() + ("; baseline restored and verified" if restored else "")
@@ -165,17 +168,17 @@ class TrialFlight:
         self.log(note)
         return note, back
 
-    def _disarm_guard(self) -> str:
-        """End the onboard guard's watch; what it did, when it acted, for the trial's message."""
-        guard = self.vehicle.guard
-        if guard is None:
-            return ""
+    def _take_back(self, trip: guard_trip.GuardTrip | None, note: str) -> str:
+        """After the restore: the vehicle the guard stopped taken back to GUIDED (the campaign goes on in it)."""
         try:
-            if guard.disarm_trial() == GuardState.TRIPPED:
-                return f"the onboard guard acted ({guard.last_text()})"
+            took = guard_trip.take_back(self.vehicle, trip)
+            if took:
+                self.vehicle.guided.park()
         except KsboError as exc:
-            return f"the onboard guard was not disarmed: {exc}"
-        return ""
+            took = f"not taken back: {exc}"
+        if took:
+            self.log(f"{note}; {took}")
+        return f"{note}; {took}" if took else note
 
     def _steps(self, rec: TrialRecorder) -> int:
         lpn = self.vehicle.last_lpn

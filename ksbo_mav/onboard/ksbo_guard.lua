@@ -5,7 +5,8 @@
 -- by the tuner) it checks, ten times a second:
 --   * the tuner's heartbeat (gcs:last_seen(): heartbeats from the system id in MAV_GCS_SYSID / SYSID_MYGCS),
 --   * the profile's box (north, east, height above the EKF origin) and tilt,
---   * the flight mode (GUIDED) and that the vehicle is still armed.
+--   * the flight mode (GUIDED, or one the tuner declared its own for this flight: KSG_MODES) and that the
+--     vehicle is still armed.
 -- On a breach it writes the baseline gains back (saved, so a reboot keeps them), switches to BRAKE and, after
 -- BRAKE_HOLD_MS, to SAFE_MODE (the pilot's own mode change is never overridden: gains only), sets
 -- KSG_STATE = 2 and KSG_TRIP to the reason, and says so in a STATUSTEXT.
@@ -16,6 +17,9 @@
 --              7 tracking error (figure-8 on board)
 --   KSG_F8     the tuner writes 1 (trial armed) to start the figure-8 on board, 0 to stop it
 --   KSG_T0     the vehicle time (ms, modulo 2^24) of the figure-8's t = 0, once it started; -1 before
+--   KSG_MODES  the custom modes (bit m = mode m, m < 24) the tuner flies in besides GUIDED during the next armed
+--              flight (a validation flight's LOITER or AUTO), written before KSG_STATE = 1; read when it arms,
+--              put back to 0 when the armed flight ends
 --   NAMED_VALUE_FLOAT KSG_ALIVE = state, KSG_CFG = CONFIG_ID, twice a second.
 --
 -- The tuner renders the block between the CONFIG markers (the gain names with their baseline values, the
@@ -46,17 +50,22 @@ local IDLE, ARMED, TRIPPED, REFUSED = 0, 1, 2, 3
 local LINK, BOX, TILT, PILOT, DISARMED, NO_POSITION, TRACK = 1, 2, 3, 4, 5, 6, 7
 local TICK_MS, ALIVE_MS = 100, 500
 
-assert(param:add_table(PARAM_TABLE_KEY, "KSG_", 4), "ksbo guard: could not add the KSG_ parameter table")
+-- (ArduPilot cannot grow a table after it was added: a vehicle that ran a guard with fewer parameters since its
+-- boot must be rebooted once)
+assert(param:add_table(PARAM_TABLE_KEY, "KSG_", 5), "ksbo guard: could not add the KSG_ parameter table")
 assert(param:add_param(PARAM_TABLE_KEY, 1, "STATE", 0), "ksbo guard: could not add KSG_STATE")
 assert(param:add_param(PARAM_TABLE_KEY, 2, "TRIP", 0), "ksbo guard: could not add KSG_TRIP")
 assert(param:add_param(PARAM_TABLE_KEY, 3, "F8", 0), "ksbo guard: could not add KSG_F8")
 assert(param:add_param(PARAM_TABLE_KEY, 4, "T0", -1), "ksbo guard: could not add KSG_T0")
+assert(param:add_param(PARAM_TABLE_KEY, 5, "MODES", 0), "ksbo guard: could not add KSG_MODES")
 -- A reboot or a script restart never starts armed (the tuner's PARAM_SET saved KSG_STATE).
 param:set("KSG_STATE", IDLE)
 param:set("KSG_F8", 0)
 param:set("KSG_T0", -1)
+param:set("KSG_MODES", 0)
 
 local state = IDLE
+local own_modes = 0 -- KSG_MODES as read when the flight armed
 local brake_since = nil
 local last_alive = 0
 local f8_start = nil -- millis() of the figure-8's t = 0 while it flies (or holds its end point)
@@ -79,6 +88,8 @@ local function set_state(s, reason)
     f8_start = nil -- a trip or the tuner's end of the trial ends the figure-8 (a trip also took control)
     param:set("KSG_F8", 0)
     param:set("KSG_T0", -1)
+    param:set("KSG_MODES", 0) -- the next flight is GUIDED only unless the tuner says otherwise again
+    own_modes = 0
   end
   state = s
   param:set("KSG_STATE", s)
@@ -179,12 +190,17 @@ local function outside_box()
   return nil
 end
 
+-- GUIDED, or a mode the tuner declared its own for this flight (bit m of own_modes).
+local function tuners_mode(mode)
+  return mode == GUIDED_MODE or (mode >= 0 and mode < 24 and math.floor(own_modes / 2 ^ mode) % 2 == 1)
+end
+
 local function watch()
   if not arming:is_armed() then
     trip(DISARMED, "disarmed", false)
     return
   end
-  if vehicle:get_mode() ~= GUIDED_MODE then
+  if not tuners_mode(vehicle:get_mode()) then
     trip(PILOT, "pilot mode change", false)
     return
   end
@@ -305,8 +321,11 @@ local function update()
       set_state(REFUSED)
       gcs:send_text(4, "KSG: trial not armed: " .. why)
     else
+      local modes = param:get("KSG_MODES") or 0
       set_state(ARMED, 0)
-      gcs:send_text(6, "KSG: trial armed")
+      own_modes = modes
+      gcs:send_text(6, modes > 0 and string.format("KSG: trial armed, modes %d", math.floor(modes))
+                    or "KSG: trial armed")
     end
   elseif wanted == IDLE and state ~= IDLE then
     set_state(IDLE)

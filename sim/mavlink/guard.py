@@ -7,9 +7,10 @@ directory served over MAVLink FTP (:mod:`ksbo_sim.mavlink.ftp`), and MAV_CMD_SCR
 the scripts: the guard then runs when ``scripts/ksbo_guard.lua`` is there, configured from the script's own
 configuration block (the same lines the Lua reads), and stops when it is gone. While it runs it does what the Lua
 does, every 100 ms of simulated time: watch an armed trial (``KSG_STATE`` 1) for the tuner's heartbeat (from the
-system id in ``MAV_GCS_SYSID``, on the simulated clock), the box, the tilt, the mode and the arming, and on a
-breach put the baseline gains back, hold (the simulator's BRAKE and LOITER are one hold mode) and say so;
-``KSG_ALIVE`` and ``KSG_CFG`` go out twice a second. The protocol words are documented in
+system id in ``MAV_GCS_SYSID``, on the simulated clock), the box, the tilt, the mode (GUIDED, or one of the custom
+modes whose bits the tuner set in ``KSG_MODES`` before it armed) and the arming, and on a breach put the baseline
+gains back, hold (the simulator's BRAKE and LOITER are one hold mode) and say so; ``KSG_ALIVE`` and ``KSG_CFG`` go
+out twice a second. The protocol words are documented in
 ``ksbo_mav.mav.guard_script``.
 
 A script rendered with a figure-8 (``F8_DURATION_MS`` > 0) flies it on board as the Lua does: on ``KSG_F8`` = 1
@@ -44,9 +45,11 @@ PARAMS = [
     ParamSpec("KSG_TRIP", 0.0, 0.0, 7.0, description="onboard guard: why it tripped"),
     ParamSpec("KSG_F8", 0.0, 0.0, 1.0, description="onboard guard: 1 flies the figure-8 on board"),
     ParamSpec("KSG_T0", -1.0, -1.0, 16777215.0, description="onboard guard: vehicle ms (mod 2^24) of its t = 0"),
+    ParamSpec("KSG_MODES", 0.0, 0.0, 16777215.0, description="onboard guard: the tuner's own modes besides GUIDED "
+                                                             "(bit per custom mode) for the next armed flight"),
 ]
 #: Never persisted: a restarted vehicle's guard starts idle, as the Lua does.
-VOLATILE = ("KSG_STATE", "KSG_TRIP", "KSG_F8", "KSG_T0")
+VOLATILE = ("KSG_STATE", "KSG_TRIP", "KSG_F8", "KSG_T0", "KSG_MODES")
 
 
 def parse_config(text: str) -> dict[str, Any] | None:
@@ -81,6 +84,7 @@ class SimGuard:
         self.f8: Figure8H | None = None
         self.f8_start_us: int | None = None
         self.f8_done = False
+        self.own_modes = 0  # KSG_MODES as read when the flight armed
 
     # --- the scripting service ---------------------------------------------------------------------------
     def restart(self) -> None:
@@ -129,8 +133,11 @@ class SimGuard:
                 self._set(REFUSED)
                 self.s.telemetry.statustext(SEV_WARNING, "KSG: trial not armed: " + why)
             else:
+                modes = int(self.s.params["KSG_MODES"])
                 self._set(ARMED, 0)
-                self.s.telemetry.statustext(SEV_INFO, "KSG: trial armed")
+                self.own_modes = modes
+                self.s.telemetry.statustext(SEV_INFO, f"KSG: trial armed, modes {modes}" if modes else
+                                            "KSG: trial armed")
         elif wanted == IDLE and self.state != IDLE:
             self._set(IDLE)
         if now_us >= self._next_alive:
@@ -149,6 +156,8 @@ class SimGuard:
             self.f8_start_us = None
             self.s.params.force("KSG_F8", 0.0)
             self.s.params.force("KSG_T0", -1.0)
+            self.s.params.force("KSG_MODES", 0.0)  # the next flight is GUIDED only unless written again
+            self.own_modes = 0
 
     def _fly_figure8(self, now_us: int) -> None:
         f, fl = self.f8, self.s.flight
@@ -202,7 +211,7 @@ class SimGuard:
         f, c = self.s.flight, self.cfg
         if not f.armed:
             return self._trip(DISARMED, "disarmed", False)
-        if f.mode is not Mode.GUIDED:
+        if not self._tuners_mode(f.mode):
             return self._trip(PILOT, "pilot mode change", False)
         silent = self._silent_ms(now_us)
         if silent > c["LINK_TIMEOUT_MS"]:
@@ -222,6 +231,17 @@ class SimGuard:
         if tilt > c["TILT_MAX_DEG"]:
             return self._trip(TILT, f"tilt {tilt:.0f}>{c['TILT_MAX_DEG']:.0f} deg", True)
         return None
+
+    def _tuners_mode(self, mode: Mode) -> bool:
+        """GUIDED, or a mode the tuner declared its own for this flight (the custom mode this simulator reports
+        for it: its hold mode is LOITER)."""
+        if mode is Mode.GUIDED:
+            return True
+        try:
+            custom = self.s.personality.custom_mode(mode)
+        except KeyError:
+            return False
+        return 0 <= custom < 24 and bool(self.own_modes >> custom & 1)
 
     def _trip(self, reason: int, text: str, take_control: bool) -> None:
         failed = sum(1 for name, value in self.cfg["GAINS"]

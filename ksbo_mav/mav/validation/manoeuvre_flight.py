@@ -5,8 +5,11 @@ The flight follows a trial's path (:mod:`ksbo_mav.mav.trial_flight`): the gains 
 a monitored hover on the start point, the manoeuvre with the monitor on every sample, and however it ends — done,
 the monitor's abort, a pilot's mode change, a lost link, Ctrl-C — the end marker, the vehicle held where it is
 (guided) when it is ours to command, the baseline restored and verified by a fresh read (when given), then the
-clean-ups (the user's mission back) and the park. Nothing here is given to the optimiser. The onboard guard is not
-armed: it would treat the autopilot's own modes (hold, auto) as a pilot's take-over.
+clean-ups (the user's mission back) and the park. Nothing here is given to the optimiser. The onboard guard
+(``vehicle.guard``, when the campaign installed one) watches the flight as it watches a trial, told which of the
+autopilot's own modes (hold, auto) the flight switches to: a lost link or a box or tilt breach puts the baseline back
+and stops the vehicle on board (a breach it stopped is the gains' abort, :mod:`ksbo_mav.mav.guard_trip`), and any
+other mode is still a pilot's take-over.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.errors import KsboError, LinkLost, PilotTookOver, VerifyError
+from ksbo_mav.mav.guard_trip import GuardTrip, classify, end_watch, take_back
 from ksbo_mav.mav.monitor import Monitor
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.tlog import TlogWriter
@@ -32,6 +36,8 @@ from ksbo_mav.mav.validation.step_manoeuvre import fly_steps
 from ksbo_mav.mav.vehicle import Vehicle
 
 _FLY = {"steps": fly_steps, "hold": fly_hold, "auto_mission": fly_auto_mission}
+#: The stack's modes (besides guided) each manoeuvre switches to: the onboard guard's own modes for the flight.
+OWN_MODES = {"steps": (), "hold": ("hold",), "auto_mission": ("auto",)}
 
 
 @dataclass(frozen=True)
@@ -103,6 +109,8 @@ def fly_manoeuvre(vehicle: Vehicle, spec: ManoeuvreSpec, monitor: Monitor, *, ga
     try:
         try:
             v.ensure_airborne(log, at=start)  # (PX4 parks in Hold after each flight: back to offboard)
+            if v.guard is not None:  # armed before the gains change, as for a trial
+                v.guard.arm_trial(v.stack.modes[m] for m in OWN_MODES[spec.kind])
             if gains is not None:
                 v.write_gains(np.asarray(gains, float))
             _FLY[spec.kind](frame, spec, start, label, detail)
@@ -118,7 +126,14 @@ def fly_manoeuvre(vehicle: Vehicle, spec: ManoeuvreSpec, monitor: Monitor, *, ga
             outcome, message, stop = T.SIGINT, "interrupted by the user", exc
         except KsboError as exc:
             outcome, message = T.ERROR, str(exc)
+        # The guard's watch ends before our own recovery; after a lost link, once the link is back.
+        note, trip = end_watch(v) if outcome is not T.LINK else ("", None)
+        outcome, message = classify(v, outcome, message, trip)
         restored, problems = _finish(frame, outcome, baseline_params, link_wait_s)
+        if outcome is T.LINK:
+            note, trip = end_watch(v)
+            problems += _take_back(v, trip, restored)
+        problems = [note, *problems] if note else problems
         if problems:
             message = "; ".join([message, *problems]) if message else "; ".join(problems)
     finally:
@@ -130,6 +145,19 @@ def fly_manoeuvre(vehicle: Vehicle, spec: ManoeuvreSpec, monitor: Monitor, *, ga
         metrics = rec.metrics()
     return ManoeuvreFlight(spec.kind, outcome, message, metrics, started, time.time(), Path(tlog_path), gains_label,
                            restored, detail, stop)
+
+
+def _take_back(v: Vehicle, trip: GuardTrip | None, restored: bool | None) -> list[str]:
+    """After a lost link, once the baseline is back: the vehicle the guard stopped back in GUIDED."""
+    if restored is False:
+        return []
+    try:
+        took = take_back(v, trip)
+        if took:
+            v.guided.park()
+    except KsboError as exc:
+        took = f"not taken back: {exc}"
+    return [took] if took else []
 
 
 def _finish(frame: ManoeuvreFrame, outcome: T, baseline: dict[str, float] | None,
