@@ -3,9 +3,10 @@
 * a trial whose figure-8, flown on board, leaves the guard's box: the guard restores the baseline and brakes; the
   tuner records the gains' abort (fence) with the guard's reason, not a pilot's take-over, and takes the vehicle
   back to GUIDED;
-* a validation flight's LOITER hold, flown with the guard armed and LOITER declared the tool's own (``KSG_MODES``):
-  the hold flies; then the tuner's link is cut mid-hold (the link emulator drops every frame both ways): the guard
-  restores the baseline and brakes on board, and once the link is back the tuner takes the vehicle back.
+* validation flights flown with the guard armed and their modes declared the tool's own (``KSG_MODES``): a LOITER
+  hold and an AUTO waypoint box fly; then the tuner's link is cut mid-hold (the link emulator drops every frame
+  both ways): the guard restores the baseline and brakes on board, and once the link is back the tuner takes the
+  vehicle back.
 
 The guard's box is made tighter than the tuner's monitor (3 m north against the profile's 15 m) so that the guard,
 not the monitor on the ground, is the one that finds the breach. The built-in simulator's version of both:
@@ -124,6 +125,11 @@ def test_a_validation_hold_flies_guarded_and_a_link_cut_mid_hold_trips_the_guard
         assert f"KSG: trial armed, modes {int(modes_mask([LOITER]))}" in guard.texts, guard.texts
         assert not any("pilot mode change" in t for t in guard.texts), guard.texts
         assert guard.read("KSG_STATE") == 0 and guard.read("KSG_MODES") == 0
+        box = fly_manoeuvre(v, ManoeuvreSpec.from_dict("auto_mission", {}).quick(), mon, gains_label="baseline",
+                            tlog_path=tmp_path / "auto.tlog", baseline_params=base)
+        assert box.outcome is T.OK, box.message  # AUTO declared the tool's own: no pilot trip
+        assert f"KSG: trial armed, modes {int(modes_mask([3]))}" in guard.texts, guard.texts
+        assert not any("pilot mode change" in t for t in guard.texts), guard.texts
 
         # The same hold, 40 s: 1 s (wall) after the heartbeat first shows LOITER, the link is cut for 8 s.
         cut: dict[str, float] = {}
