@@ -4,7 +4,8 @@ The built-in simulator's simulated guard (the JSBSim copter with ArduPilot's nam
 box or tilt limit tighter than the tuner's monitor, so that the guard, not the monitor, finds the breach and
 switches the vehicle to its hold mode: the tuner records the trial as aborted by the gains with the guard's
 reason, takes the vehicle back to GUIDED, and flies on. A validation flight arms the guard with its own modes
-declared (LOITER for the hold): the guard lets the hold fly, trips for a pilot's other mode, and stops a tilt.
+declared (LOITER for the hold): the guard lets the hold fly, trips for a pilot's other mode, and stops a tilt; a
+whole campaign (marked slow) flies its validation flights guarded.
 The same on ArduCopter SITL with the Lua script: ``test_sitl_guard_trip.py``.
 """
 
@@ -139,3 +140,32 @@ def test_a_pilots_other_mode_during_a_guarded_hold_is_still_a_take_over(tmp_path
             if v.guard is not None:
                 v.guard.remove()
             v.close()
+
+
+@pytest.mark.slow  # a whole campaign with its validation flights (about 30 s)
+def test_a_campaigns_validation_flights_fly_guarded(tmp_path):
+    import subprocess
+    import sys
+
+    from mav_tune_helpers import fresh_read, sim_and_endpoint
+    from test_validation_campaign import _profile
+
+    from ksbo_mav.mav.guard_script import GUARD_PARAMS
+    from ksbo_mav.mav.tlog import read_tlog
+
+    d = tmp_path / "c"
+    with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot") as (sim, ep):
+        r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp", f"127.0.0.1:{ep.port}",
+                            "--profile", str(_profile(tmp_path)), "--budget", "3", "--method", "random", "--prior",
+                            "none", "--end", "hold"], capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr[-3000:]
+        assert fresh_read(sim, list(GUARD_PARAMS), None) == GUARD_PARAMS  # removed with all it added
+    assert "validation: the onboard guard watches every flight" in r.stderr
+    flights = [json.loads(x) for x in (d / "validation.jsonl").read_text().splitlines() if x.strip()]
+    assert flights and all(f["outcome"] == "ok" for f in flights), flights
+    armed = {"steps": "KSG: trial armed", "hold": f"KSG: trial armed, modes {1 << LOITER}",
+             "auto_mission": f"KSG: trial armed, modes {1 << 3}"}
+    for f in flights:
+        texts = [str(m.msg.text) for m in read_tlog(f["tlog"]) if m.msg.get_type() == "STATUSTEXT"]
+        assert armed[f["manoeuvre"]] in texts, (f["manoeuvre"], [t for t in texts if t.startswith("KSG")])
+        assert not any("pilot mode change" in t for t in texts)
