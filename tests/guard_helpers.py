@@ -34,6 +34,7 @@ class Observer:
         self.conn.mav.command_long_send(1, 1, 511, 0, 2, 50_000, 0, 0, 0, 0, 0)  # SYSTEM_TIME at 20 Hz, this link
         self.vehicle_ms = 0
         self.mode = -1
+        self.armed: bool | None = None
         self.texts: list[str] = []
         self.alive: list[tuple[int, float]] = []  # (time_boot_ms, KSG_ALIVE)
 
@@ -45,6 +46,7 @@ class Observer:
             self.vehicle_ms = max(self.vehicle_ms, int(m.time_boot_ms))
         if t == "HEARTBEAT" and m.get_srcComponent() == 1:
             self.mode = int(m.custom_mode)
+            self.armed = bool(m.base_mode & 128)
         elif t == "STATUSTEXT" and str(m.text).startswith("KSG:"):
             self.texts.append(str(m.text))
         elif t == "NAMED_VALUE_FLOAT" and m.name == "KSG_ALIVE":
@@ -88,6 +90,15 @@ class Observer:
 
     def set_mode(self, mode: int) -> None:
         self.conn.mav.command_long_send(1, 1, 176, 0, 1, mode, 0, 0, 0, 0, 0)
+
+    def land(self, wall_s: float = 120.0) -> bool:
+        """LAND (ArduCopter mode 9) until the vehicle disarms, so the next test starts from the ground whatever this
+        one left flying (the guard's LOITER descends on a SITL's resting throttle, and a vehicle found landed but
+        still armed in it takes no new takeoff). Whether it disarmed (never raises: called in clean-ups)."""
+        self.pump(0.5)
+        if self.armed is not False:
+            self.set_mode(9)
+        return self.until(lambda: self.armed is False, wall_s)
 
     def close(self) -> None:
         self.conn.close()

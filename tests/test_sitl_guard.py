@@ -70,6 +70,7 @@ def test_link_cut_restores_baseline_and_stops_on_board(scripting_sitl):
         assert obs.until(lambda: obs.mode == LOITER, 30.0)  # BRAKE, then the safe mode
     finally:
         stop(proc)
+        obs.land()
         obs.close()
 
 
@@ -87,6 +88,7 @@ def test_box_left_restores_baseline_and_brakes(scripting_sitl):
         assert any("north" in t for t in obs.texts), obs.texts
     finally:
         stop(proc)
+        obs.land()
         obs.close()
 
 
@@ -103,6 +105,7 @@ def test_pilot_mode_change_restores_baseline_and_keeps_the_pilots_mode(scripting
         assert obs.mode == LOITER
     finally:
         stop(proc)
+        obs.land()
         obs.close()
 
 
