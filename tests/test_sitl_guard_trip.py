@@ -170,3 +170,37 @@ def test_a_validation_hold_flies_guarded_and_a_link_cut_mid_hold_trips_the_guard
         v.close()
         obs.close()
         emu.stop()
+
+
+def test_a_vehicle_that_ran_an_older_guard_since_its_boot_is_told_to_reboot(tmp_path):
+    """ArduPilot cannot grow a script's parameter table after it was added: a guard of four parameters (before
+    ``KSG_MODES``) that ran since boot leaves no room for the fifth, and the new guard says so in one line."""
+    from ksbo_mav.mav.ftp_files import put_file
+    from ksbo_mav.mav.guard_script import config_for, new_config_id, render_script
+    from ksbo_mav.mav.onboard_guard import GuardUnavailable, OnboardGuard
+
+    fresh = sitl_or_skip("ardupilot", SPEEDUP)  # its own boot: no KSG_ table yet
+    try:
+        v = Vehicle.connect(Endpoint("tcp", "127.0.0.1", fresh.tcp_port), PROFILE)
+        try:
+            base = {n: v.params.read(n) for n in v.gain_map.param_names}
+            cfg = config_for(limits_from_profile(v.profile), 3.0, base, new_config_id())
+            older = render_script(cfg).decode().replace('"KSG_", 5)', '"KSG_", 4)')
+            older = "\n".join(line for line in older.splitlines() if '"MODES"' not in line)
+            texts: list[str] = []
+            v.link.handlers.append(lambda m: texts.append(str(m.text)) if m.get_type() == "STATUSTEXT" else None)
+            put_file(v.link, "scripts/ksbo_guard.lua", older.encode())
+            OnboardGuard(v.link, v.params, v.cmd).restart_scripts()
+            deadline = time.monotonic() + 30.0
+            while not any(t.startswith("KSG: guard running") for t in texts) and time.monotonic() < deadline:
+                v.link.pump(0.2)
+            assert any(t.startswith("KSG: guard running") for t in texts), texts  # the older guard runs
+            with pytest.raises(GuardUnavailable, match="reboot vehicle") as err:
+                OnboardGuard(v.link, v.params, v.cmd).install(config_for(limits_from_profile(v.profile), 3.0, base,
+                                                                         new_config_id()))
+            print(f"installer: {err.value}")
+        finally:
+            v.close()
+    finally:
+        fresh.stop()
+        release_stopped()

@@ -50,9 +50,12 @@ local IDLE, ARMED, TRIPPED, REFUSED = 0, 1, 2, 3
 local LINK, BOX, TILT, PILOT, DISARMED, NO_POSITION, TRACK = 1, 2, 3, 4, 5, 6, 7
 local TICK_MS, ALIVE_MS = 100, 500
 
--- (ArduPilot cannot grow a table after it was added: a vehicle that ran a guard with fewer parameters since its
--- boot must be rebooted once)
-assert(param:add_table(PARAM_TABLE_KEY, "KSG_", 5), "ksbo guard: could not add the KSG_ parameter table")
+-- ArduPilot cannot grow a table after it was added: a vehicle that ran a guard with fewer parameters since its boot
+-- must be rebooted once. Said in a KSG text, which the tuner's installer shows.
+if not param:add_table(PARAM_TABLE_KEY, "KSG_", 5) then
+  gcs:send_text(0, "KSG: no KSG_ table (older guard?): reboot vehicle")
+  return
+end
 assert(param:add_param(PARAM_TABLE_KEY, 1, "STATE", 0), "ksbo guard: could not add KSG_STATE")
 assert(param:add_param(PARAM_TABLE_KEY, 2, "TRIP", 0), "ksbo guard: could not add KSG_TRIP")
 assert(param:add_param(PARAM_TABLE_KEY, 3, "F8", 0), "ksbo guard: could not add KSG_F8")
