@@ -22,7 +22,7 @@ from typing import Any
 
 from ksbo_mav.errors import InputError, VehicleError
 from ksbo_mav.mav.commands import Commander
-from ksbo_mav.mav.ftp_files import list_dir, put_file, remove_file
+from ksbo_mav.mav.ftp_files import QUIET_S, list_dir, put_file, remove_file
 from ksbo_mav.mav.guard_script import (
     ALIVE_NAME,
     CONFIG_NAME,
@@ -156,9 +156,13 @@ class OnboardGuard:
         self.log(f"onboard guard: {name} {int(before)} -> {ours} (the tuner's heartbeat is the guard's link "
                  "check; put back at the end)")
 
+    def _quiet_s(self) -> float:
+        """How long a file request's silence counts as its answer: the command waits sized to the link."""
+        return max(QUIET_S, self.cmd.ack_wait_s)
+
     def _script_dir(self) -> str:
         for d in SCRIPT_DIRS:
-            if list_dir(self.link, d) is not None:
+            if list_dir(self.link, d, self._quiet_s()) is not None:
                 return d
         raise GuardUnavailable(f"no scripts directory on the vehicle ({' or '.join(SCRIPT_DIRS)} over MAVLink FTP)")
 
@@ -172,7 +176,7 @@ class OnboardGuard:
         directory = self._script_dir()
         data = render_script(config)
         self.script_path = f"{directory}/{SCRIPT_NAME}"
-        put_file(self.link, self.script_path, data)
+        put_file(self.link, self.script_path, data, quiet_s=self._quiet_s())
         self.config = config
         self.restart_scripts()
         deadline = time.monotonic() + ALIVE_WAIT_S
@@ -255,5 +259,5 @@ class OnboardGuard:
     def _remove_script(self) -> None:
         paths = [self.script_path] if self.script_path else [f"{d}/{SCRIPT_NAME}" for d in SCRIPT_DIRS]
         for path in paths:
-            remove_file(self.link, path)
+            remove_file(self.link, path, self._quiet_s())
         self.restart_scripts()

@@ -10,9 +10,11 @@ Lockstep protocol (``--lockstep``): simulated time never advances on its own.
 2. COMMAND_LONG MAV_CMD_USER_2 (31011), p1 = seconds: advance that many seconds (rounded up to whole control
    periods), streaming telemetry on the simulated clock as usual, then COMMAND_ACK. Used to wait for takeoff,
    landing or a hold without streaming setpoints.
-3. At least one HEARTBEAT goes out per wall-clock second: while nothing advances time (time frozen), and while
-   simulated time runs slower than real time (a lossy link makes the client re-send steps), so that a ground
-   station's wall-clock heartbeat timeout measures the link, not the step rate; nothing else changes.
+3. A HEARTBEAT goes out at least every quarter of a wall-clock second while nothing advances time (time frozen),
+   and while simulated time runs slower than real time (a lossy link makes the client re-send steps), so that a
+   ground station's wall-clock heartbeat timeout measures the link, not the step rate, and a client that waits for
+   the vehicle's next heartbeat between two flights waits a quarter of a second, not up to one; nothing else
+   changes.
 
 Real time (default) runs one control period per ``ctrl_dt / speedup`` wall seconds.
 """
@@ -43,6 +45,8 @@ from ksbo_sim.mavlink.power import Power
 from ksbo_sim.mavlink.telemetry import HEARTBEAT, LOCAL_POSITION_NED, Telemetry
 from ksbo_sim.vehicle import ParamSpec, VehicleModel
 
+#: Wall seconds between HEARTBEATs while the simulated clock stands still or runs slower than real time.
+IDLE_HEARTBEAT_S = 0.25
 #: Fault switches: volatile (never persisted), so a restarted vehicle never boots faulty.
 FAULT_PARAMS = ("SIM_PKT_LOSS_IN", "SIM_PKT_LOSS_OUT", "SIM_DELAY_MS", "SIM_MUTE_S", "SIM_PILOT_MODE",
                 "SIM_PSET_FAIL", "SIM_FAULT_AFTER", "SIM_CRASH_WRITES", "SIM_HB_MUTE_S")
@@ -292,10 +296,10 @@ class Server:
             now = time.monotonic()
             if self.lockstep:
                 if now >= next_idle_hb:
-                    if now - self.telemetry.heartbeat_wall >= 1.0:
+                    if now - self.telemetry.heartbeat_wall >= IDLE_HEARTBEAT_S:
                         self.telemetry.send(HEARTBEAT, self.now_us)
                         self.link.flush()
-                    next_idle_hb = self.telemetry.heartbeat_wall + 1.0
+                    next_idle_hb = self.telemetry.heartbeat_wall + IDLE_HEARTBEAT_S
                 continue
             if now - next_step > 0.25:  # far behind (CPU-bound at a high speed-up): drop the backlog
                 next_step = now
