@@ -45,6 +45,7 @@ def test_a_vehicle_in_a_rising_wind_stops_the_campaign_with_the_numbers(tmp_path
     assert (d / "report" / "conditions.png").is_file()
 
 
+@pytest.mark.slow
 def test_continue_mode_flies_the_budget_through_a_gusty_wind(tmp_path, capsys) -> None:
     # seeded gusts around 1 m/s: the baseline's P scatters 0.09-0.16 against 0.20 in calm air; the re-flights go
     # on at the cadence, the noise they show raises the test's threshold, and the budget is flown
@@ -68,6 +69,7 @@ def test_continue_mode_flies_the_budget_through_a_gusty_wind(tmp_path, capsys) -
         assert after and all(e["cond"]["P_corrected"] >= e["P"] for e in after)
 
 
+@pytest.mark.slow
 def test_a_copter_whose_drag_grows_stops_with_the_lap_rms(tmp_path, capsys) -> None:
     # the JSBSim copter's drag rising 30 % per minute of flight: its lap-2 RMS at the baseline gains rises with it
     # (the autopilot's loops do not make up for drag as they do for lost thrust); the test fires on the RMS

@@ -100,6 +100,7 @@ def test_continue_mode_scores_against_the_baseline_now_from_its_re_flights(tmp_p
     assert watch.corrected(j, -0.05, None, 2.0) == pytest.approx(0.15)
 
 
+@pytest.mark.slow
 @pytest.mark.network
 @pytest.mark.timeout(600)
 def test_a_static_vehicle_is_re_flown_at_the_cadence_and_the_campaign_goes_on(tmp_path, capsys) -> None:

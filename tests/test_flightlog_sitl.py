@@ -160,6 +160,7 @@ def _match(result: dict, t0_ms: int) -> dict:
     return f8s[0]
 
 
+@pytest.mark.slow
 def test_campaign_trials_bin_score_equals_live_tlog_score(ardupilot_sitl, tmp_path, capsys):
     recs = _campaign(ardupilot_sitl, tmp_path)
     binlog = _complete_log(ardupilot_sitl, ".BIN")
@@ -179,6 +180,7 @@ def test_campaign_trials_bin_score_equals_live_tlog_score(ardupilot_sitl, tmp_pa
         assert _score(capsys, rec["tlog"])["score"]["P"] == pytest.approx(live["P"], abs=1e-9)
 
 
+@pytest.mark.slow
 def test_campaign_trials_ulg_score_equals_live_tlog_score(px4_sitl, tmp_path, capsys):
     recs = _campaign(px4_sitl, tmp_path)
     ulg = _complete_log(px4_sitl, ".ulg")

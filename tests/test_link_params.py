@@ -132,6 +132,7 @@ def test_arducopter_parameters_arrive_through_a_radio_like_link(ardupilot_sitl, 
     assert stats["down"]["lost"] > 0
 
 
+@pytest.mark.slow
 @pytest.mark.network
 @pytest.mark.timeout(300)
 def test_a_link_too_thin_for_the_mission_is_refused_before_arming_in_one_line(tmp_path) -> None:
@@ -162,6 +163,7 @@ def test_a_link_too_thin_for_the_mission_is_refused_before_arming_in_one_line(tm
         emu.stop()
 
 
+@pytest.mark.slow
 @pytest.mark.network
 @pytest.mark.timeout(240)
 def test_a_link_too_thin_for_50_hz_flies_at_the_highest_rate_it_carries() -> None:
@@ -203,6 +205,7 @@ def test_a_link_that_carries_the_mission_passes_and_its_figures_are_kept(tmp_pat
     assert len(doc) == 2 and doc[0]["rates_hz"]["LOCAL_POSITION_NED"] >= 40
 
 
+@pytest.mark.slow
 @pytest.mark.network
 def test_a_campaign_flies_at_the_rate_asked_and_a_resume_keeps_it(tmp_path) -> None:
     """`--rate 25`: the trials stream setpoints and ask telemetry at 25 Hz, the rate is stored with the campaign

@@ -84,6 +84,7 @@ def test_setpoints_thin_out_when_the_ground_radio_reports_its_buffer_filling() -
 
 
 
+@pytest.mark.slow
 @pytest.mark.network
 @pytest.mark.timeout(180)
 def test_an_uplink_too_thin_for_50_hz_setpoints_is_found_by_the_radios_buffer_and_stepped_down() -> None:

@@ -139,6 +139,7 @@ def test_stress_velocity_is_against_the_path_at_nine_tenths_of_the_start_speed_a
     assert not stress_velocity("figure8-xz", 0.0).any() and not stress_velocity("figure8-ne", 1.0).any()
 
 
+@pytest.mark.slow
 @pytest.mark.network
 @pytest.mark.timeout(240)
 def test_campaign_reflies_from_the_hardest_start_under_refly_stress(tmp_path) -> None:

@@ -50,6 +50,7 @@ def test_a_mode_change_during_a_trial_stops_the_campaign_and_leaves_the_vehicle_
         assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
 
 
+@pytest.mark.slow
 def test_a_mode_change_between_trials_is_not_undone(tmp_path):
     """ArduPilot's LOITER is the mode a pilot takes over in; switched to it while the optimiser thinks, the vehicle
     stays there (the next trial does not switch it back to GUIDED)."""

@@ -221,6 +221,7 @@ def _verdict(page: str) -> str:
     return page[page.index("Verdict"):page.index("<h2>Plots")]
 
 
+@pytest.mark.slow
 def test_a_crashed_confirmation_is_counted_and_the_verdict_says_not_confirmed(tmp_path):
     """The vehicle really crashes as the confirmation's gains are written (SIM_CRASH_WRITES, set once the last
     optimiser trial is journalled): the page counts it as the console does and shows the safety plot."""
@@ -252,6 +253,7 @@ def test_a_crashed_confirmation_is_counted_and_the_verdict_says_not_confirmed(tm
     assert re.search(rf'<tr class="crash"><td>{crashed[0]}</td><td class="l">confirmation</td>', _page(d))
 
 
+@pytest.mark.slow
 def test_report_of_an_interrupted_campaign_shows_the_trials_so_far(tmp_path, capsys):
     """The pilot takes over during the baseline trial: the campaign stops without a result; `ksbo-mav report`
     still writes the page, says the campaign is unfinished and counts the interrupted trial."""

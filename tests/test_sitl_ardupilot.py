@@ -74,6 +74,7 @@ def test_the_copter_default_campaign_fits_one_pack(ardupilot_sitl, tmp_path):
     assert not (tmp_path / "plan").exists()
 
 
+@pytest.mark.slow
 def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
     d = tmp_path / "killed"
     cmd = [sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--tcp", f"127.0.0.1:{ardupilot_sitl.tcp_port}",
@@ -181,6 +182,7 @@ def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ar
     assert not armed and not param_diff(d, now)
 
 
+@pytest.mark.slow
 def test_arming_refused_is_one_clear_line_and_nothing_recorded(tmp_path):
     # A vehicle that will not arm (battery below its minimum arming voltage): the tool retries for 90 s of vehicle
     # time while the vehicle says why, then stops with that reason on one line; no trial is recorded and nothing
@@ -205,6 +207,7 @@ def test_arming_refused_is_one_clear_line_and_nothing_recorded(tmp_path):
         sitl.stop()
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(900)
 def test_a_finite_battery_stops_the_campaign_safely_and_resume_completes_it(tmp_path):
     """ArduCopter SITL with a small pack (SIM_BATT_CAP_AH, BATT_CAPACITY) and its low-battery failsafe set to RTL:
@@ -252,6 +255,7 @@ def test_a_finite_battery_stops_the_campaign_safely_and_resume_completes_it(tmp_
     assert entries[n_stopped]["kind"] == "baseline"  # after the swap the baseline flew first, tested for drift
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(900)
 def test_wind_raised_mid_campaign_stops_it_as_a_changed_vehicle(tmp_path):
     """ArduCopter SITL in calm air, then SIM_WIND_SPD / SIM_WIND_TURB raised (through its second port) once the

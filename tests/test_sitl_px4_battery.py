@@ -14,6 +14,7 @@ from sitl_helpers import endpoint, tool
 pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
 
 
+@pytest.mark.slow
 def test_the_default_px4_sitl_pack_stops_the_campaign_with_the_setting_that_makes_it_last(tmp_path):
     from conftest import sitl_or_skip
 

@@ -82,6 +82,7 @@ def test_campaign_with_accept_leaves_best_gains(tmp_path):
         assert (tmp_path / "c" / "accepted.param").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(240)
 def test_accept_refuses_gains_that_failed_their_confirmation_flight(tmp_path, capsys):
     """--accept leaves the best gains only if every confirmation flight of them completed safely: here the vehicle
@@ -217,6 +218,7 @@ def test_pilot_mode_change_is_journalled_as_failed_not_as_a_gain_point(tmp_path)
         assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(180)
 def test_resume_flies_the_stored_profile_file_and_refuses_a_changed_box_or_mission(tmp_path, capsys):
     """A campaign started with ``--profile FILE`` resumes with that file; if the file's search box or mission

@@ -93,6 +93,7 @@ def _replayed_stop(d: Path) -> int:
     return r.info["stop"]["after"]
 
 
+@pytest.mark.slow
 def test_no_early_stop_flies_the_whole_budget(tmp_path, capsys):
     d = tmp_path / "c"
     with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot") as (_sim, ep):

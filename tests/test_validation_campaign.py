@@ -84,6 +84,7 @@ def campaign(tmp_path_factory):
         yield d, sim, ep, {"before": before, "killed_at": killed_at, "resumed": resumed}
 
 
+@pytest.mark.slow
 def test_resumed_validation_flies_each_slot_once_alternated(campaign):
     d, _, _, out = campaign
     flights = _lines(d / "validation.jsonl")

@@ -31,6 +31,7 @@ def _journal(d) -> list[dict]:
     return [json.loads(line) for line in (d / "journal.jsonl").read_text().splitlines()]
 
 
+@pytest.mark.slow
 def test_warm_start_refits_the_earlier_result_in_a_few_flights_and_refuses_another_gain_set(tmp_path):
     a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
     with sim_and_endpoint() as (sim, ep):

@@ -106,6 +106,7 @@ def _tune(args: list[str]) -> tuple[int, str]:
     return rc, err.getvalue() + out.getvalue()
 
 
+@pytest.mark.slow
 @pytest.mark.network
 @pytest.mark.timeout(400)
 def test_widen_reaches_past_the_original_bound_safely_and_resumes(tmp_path):
