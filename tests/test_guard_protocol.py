@@ -56,6 +56,7 @@ def test_link_cut_restores_baseline_and_holds(sim):
         obs.close()
 
 
+@pytest.mark.slow
 def test_pilot_mode_change_restores_baseline_and_keeps_the_pilots_mode(sim):
     proc, values = start_tuner(device(sim), PROFILE, {"trial": TRIAL})
     obs = Observer(device(sim))

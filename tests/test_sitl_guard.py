@@ -74,6 +74,7 @@ def test_link_cut_restores_baseline_and_stops_on_board(scripting_sitl):
         obs.close()
 
 
+@pytest.mark.slow
 def test_box_left_restores_baseline_and_brakes(scripting_sitl):
     obs = Observer(f"tcp:127.0.0.1:{scripting_sitl.tcp_ports[1]}")
     # The figure-8 starts at the origin's north 0: a 3 m box, and the trial flown 6 m north.

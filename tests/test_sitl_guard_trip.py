@@ -172,6 +172,7 @@ def test_a_validation_hold_flies_guarded_and_a_link_cut_mid_hold_trips_the_guard
         emu.stop()
 
 
+@pytest.mark.slow
 def test_a_vehicle_that_ran_an_older_guard_since_its_boot_is_told_to_reboot(tmp_path):
     """ArduPilot cannot grow a script's parameter table after it was added: a guard of four parameters (before
     ``KSG_MODES``) that ran since boot leaves no room for the fifth, and the new guard says so in one line."""
