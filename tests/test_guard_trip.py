@@ -91,15 +91,21 @@ def _hold(seconds: float) -> ManoeuvreSpec:
     return ManoeuvreSpec.from_dict("hold", {"seconds": seconds})
 
 
+def _guarded_hold(v, base, tmp_path, seconds: float):
+    """Install the guard and fly a hold of ``seconds`` with the baseline: (guard, monitor, the flight)."""
+    guard = _install(v, base, False)
+    v.setup_streams()
+    mon = Monitor(limits_from_profile(v.profile), v.stack.modes["guided"], v.stack.mode_name)
+    f = fly_manoeuvre(v, _hold(seconds), mon, gains_label="baseline", tlog_path=tmp_path / "hold.tlog",
+                      baseline_params=base)
+    return guard, mon, f
+
+
 def test_a_validation_flight_flies_guarded_with_its_hold_mode_declared(tmp_path):
     with SimProcess("--lockstep", "--vehicle", "copter3d", "--personality", "ardupilot-legacy") as sim:
         v, base = _connect(sim)
         try:
-            guard = _install(v, base, False)
-            v.setup_streams()
-            mon = Monitor(limits_from_profile(v.profile), v.stack.modes["guided"], v.stack.mode_name)
-            f = fly_manoeuvre(v, _hold(8), mon, gains_label="baseline", tlog_path=tmp_path / "hold.tlog",
-                              baseline_params=base)
+            guard, mon, f = _guarded_hold(v, base, tmp_path, 8)
             assert f.outcome is T.OK, f.message
             assert f"KSG: trial armed, modes {int(modes_mask([LOITER]))}" in guard.texts, guard.texts
             assert not any("pilot mode change" in t for t in guard.texts), guard.texts
@@ -127,11 +133,7 @@ def test_a_pilots_other_mode_during_a_guarded_hold_is_still_a_take_over(tmp_path
                     "--set", "SIM_PILOT_MODE=0", "--set", "SIM_FAULT_AFTER=12") as sim:
         v, base = _connect(sim)
         try:
-            guard = _install(v, base, False)
-            v.setup_streams()
-            mon = Monitor(limits_from_profile(v.profile), v.stack.modes["guided"], v.stack.mode_name)
-            f = fly_manoeuvre(v, _hold(30), mon, gains_label="baseline", tlog_path=tmp_path / "hold.tlog",
-                              baseline_params=base)
+            guard, mon, f = _guarded_hold(v, base, tmp_path, 30)
             hb = v.link.wait_heartbeat(5.0)
             assert f.outcome is T.PILOT and "STABILIZE" in f.message, (f.outcome, f.message)
             assert guard.trip_code() == 4 and "pilot mode change" in f.message, f.message
