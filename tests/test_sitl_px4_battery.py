@@ -14,15 +14,14 @@ from sitl_helpers import endpoint, tool
 pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
 
 
-@pytest.mark.slow
 def test_the_default_px4_sitl_pack_stops_the_campaign_with_the_setting_that_makes_it_last(tmp_path):
     from conftest import sitl_or_skip
 
     from ksbo_mav.mav.simulator import simulator_of
     from ksbo_mav.mav.vehicle import Vehicle
 
-    # PX4's own defaults (no longer-lasting pack set for the test); 2x: one trial is all it needs
-    sitl = sitl_or_skip("px4", 2, keep_params=True)
+    # PX4's own defaults (no longer-lasting pack set for the test); 5x: one trial is all it needs
+    sitl = sitl_or_skip("px4", 5, keep_params=True)
     try:
         assert sitl.set_param("COM_RCL_EXCEPT", 4, int32=True) == 4
         v = Vehicle.connect(endpoint(sitl), "px4-copter", sysid=250, compid=190)
