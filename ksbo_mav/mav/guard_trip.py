@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 from ksbo_mav.errors import KsboError
 from ksbo_mav.mav.guard_script import TRIP_REASONS, GuardState
+from ksbo_mav.mav.link_return import guided_here
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.vehicle import Vehicle
 
@@ -81,15 +82,15 @@ def classify(v: Vehicle, outcome: T, message: str, trip: GuardTrip | None) -> tu
 
 
 def take_back(v: Vehicle, trip: GuardTrip | None) -> str:
-    """Once the baseline is restored and verified: GUIDED again, holding where it is, when the guard tripped for the
-    gains or a lost link and the vehicle is armed in its BRAKE or safe mode. What was done, for the flight's
-    message ("" when nothing was)."""
+    """Once the baseline is restored and verified: GUIDED again, holding where it is, then parked as after any
+    flight, when the guard tripped for the gains or a lost link and the vehicle is armed in its BRAKE or safe mode.
+    What was done, for the flight's message ("" when nothing was; "not taken back: ..." when it failed)."""
     if trip is None or not (trip.outcome is not None or trip.code == LINK_TRIP) or not _guards_stop(v):
         return ""
-    g = v.guided
-    mode = v.stack.mode_name(int(g.heartbeat.custom_mode))
-    here = g.position()
-    if here is not None:
-        g.hold_at(here)
-    g.cmd.set_mode("guided")
+    mode = v.stack.mode_name(int(v.guided.heartbeat.custom_mode))
+    try:
+        guided_here(v)
+        v.guided.park()
+    except KsboError as exc:
+        return f"not taken back: {exc}"
     return f"taken back from the guard's {mode} to GUIDED"

@@ -119,8 +119,14 @@ def take_back(v: Vehicle, found: LinkReturn) -> str:
         return ""
     if not found.ours_to_take_back:
         return "left as it is (not the guard's doing)"
+    guided_here(v)
+    return f"taken back from {found.mode} to GUIDED"
+
+
+def guided_here(v: Vehicle) -> None:
+    """GUIDED again, holding where the vehicle is (the guard stopped it in its BRAKE or safe mode)."""
+    g = v.guided
     here = g.position()
     if here is not None:
         g.hold_at(here)
     g.cmd.set_mode("guided")
-    return f"taken back from {found.mode} to GUIDED"

@@ -22,7 +22,7 @@ from typing import Any
 
 from ksbo_mav.errors import InputError, VehicleError
 from ksbo_mav.mav.commands import Commander
-from ksbo_mav.mav.ftp_files import QUIET_S, list_dir, put_file, remove_file
+from ksbo_mav.mav.ftp_files import list_dir, put_file, remove_file
 from ksbo_mav.mav.guard_script import (
     ALIVE_NAME,
     CONFIG_NAME,
@@ -157,8 +157,9 @@ class OnboardGuard:
                  "check; put back at the end)")
 
     def _quiet_s(self) -> float:
-        """How long a file request's silence counts as its answer: the command waits sized to the link."""
-        return max(QUIET_S, self.cmd.ack_wait_s)
+        """How long a file request's silence counts as its answer: the command waits sized to the link (MAVLink
+        FTP's own floor, :data:`~ksbo_mav.mav.ftp_files.QUIET_S`, when they are shorter)."""
+        return self.cmd.ack_wait_s
 
     def _script_dir(self) -> str:
         for d in SCRIPT_DIRS:

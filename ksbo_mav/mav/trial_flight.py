@@ -170,12 +170,7 @@ class TrialFlight:
 
     def _take_back(self, trip: guard_trip.GuardTrip | None, note: str) -> str:
         """After the restore: the vehicle the guard stopped taken back to GUIDED (the campaign goes on in it)."""
-        try:
-            took = guard_trip.take_back(self.vehicle, trip)
-            if took:
-                self.vehicle.guided.park()
-        except KsboError as exc:
-            took = f"not taken back: {exc}"
+        took = guard_trip.take_back(self.vehicle, trip)
         if took:
             self.log(f"{note}; {took}")
         return f"{note}; {took}" if took else note

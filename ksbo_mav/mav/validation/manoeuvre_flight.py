@@ -151,12 +151,7 @@ def _take_back(v: Vehicle, trip: GuardTrip | None, restored: bool | None) -> lis
     """After a lost link, once the baseline is back: the vehicle the guard stopped back in GUIDED."""
     if restored is False:
         return []
-    try:
-        took = take_back(v, trip)
-        if took:
-            v.guided.park()
-    except KsboError as exc:
-        took = f"not taken back: {exc}"
+    took = take_back(v, trip)
     return [took] if took else []
 
 
