@@ -89,13 +89,20 @@ def _past(value: float, limit: float, digits: int) -> str:
     return f"{value:.{digits + 6}f}"
 
 
+def tilt_rad(roll: float, pitch: float) -> float:
+    """The angle between the body's z axis and the vertical for Euler roll and pitch (rad): acos(cos r cos p).
+
+    max(|roll|, |pitch|) reads low when both lean at once: roll and pitch of 35 deg each are a 47 deg tilt."""
+    return math.acos(max(-1.0, min(1.0, math.cos(roll) * math.cos(pitch))))
+
+
 def check_state(lim: MonitorLimits, north: float, east: float, up: float, tilt_rad: float | None = None,
                 ref: tuple[float, float, float] | None = None,
                 vel: tuple[float, float, float] | None = None) -> tuple[str, str] | None:
     """One sample against ``lim``: ``(code, message)`` with code "fence", "tilt" or "track", or None.
 
     Args:
-        north, east, up: position (m). tilt_rad: max(|roll|, |pitch|) or None if unknown.
+        north, east, up: position (m). tilt_rad: the tilt (:func:`tilt_rad`) or None if unknown.
         ref: reference (north, east, up) for the tracking-error check, or None (holds).
         vel: velocity (north, east, up) in m/s for the stopping-point fence (``lim.brake_accel``), or None.
     """

@@ -86,6 +86,18 @@ def test_one_limit_check_for_batch_sample_and_mavlink() -> None:
     assert mon.check_sample(SimpleNamespace(x=math.nan, y=0.0, z=-1.0), None, None)[0] == "fence"
 
 
+def test_the_tilt_is_the_body_axis_from_the_vertical_not_the_larger_euler_angle() -> None:
+    """Roll and pitch of 35 deg each lean the vehicle 47.8 deg: a 40 deg limit trips, neither angle past it."""
+    from ksbo_mav.mav.monitor import Limits, Monitor
+
+    mon = Monitor(Limits(x_max=15, y_max=15, z_min=2, z_max=20, tilt_max_deg=40, tracking_error_max=5), guided_mode=4)
+    lpn = SimpleNamespace(x=0.0, y=0.0, z=-10.0)
+    both = SimpleNamespace(roll=math.radians(35), pitch=math.radians(35))
+    assert mon.check_sample(lpn, both, None) == ("tilt", "tilt 48 deg > 40 deg")
+    assert mon.check_sample(lpn, SimpleNamespace(roll=math.radians(39), pitch=0.0), None) is None
+    assert mon.check_sample(lpn, SimpleNamespace(roll=0.0, pitch=math.radians(-41)), None)[0] == "tilt"
+
+
 def test_stopping_point_fence_trips_a_vehicle_racing_towards_the_box_edge() -> None:
     from ksbo_mav.mav.monitor import Monitor
 

@@ -17,7 +17,7 @@ import numpy as np
 from ksbo_mav.errors import InputError
 from ksbo_mav.mav.outcome import TrialOutcome
 from ksbo_mav.profiles import Profile
-from ksbo_task.limit_checks import MonitorLimits, check_state
+from ksbo_task.limit_checks import MonitorLimits, check_state, tilt_rad
 
 #: The abort thresholds: the task package's dataclass (one implementation of the limit checks for the MAVLink
 #: monitor and the simulators).
@@ -55,7 +55,7 @@ class Monitor:
         for that instant, NED, or None during holds). The checks are :func:`ksbo_task.limit_checks.check_state`, the
         same code the in-process simulator's monitor runs; the sample's velocity feeds the stopping-point fence
         when the profile sets ``brake_accel_mps2``."""
-        tilt = None if att is None else max(abs(float(att.pitch)), abs(float(att.roll)))
+        tilt = None if att is None else tilt_rad(float(att.roll), float(att.pitch))
         ref = None if ref_ned is None else (float(ref_ned[0]), float(ref_ned[1]), -float(ref_ned[2]))
         vel = (float(getattr(lpn, "vx", math.nan)), float(getattr(lpn, "vy", math.nan)),
                -float(getattr(lpn, "vz", math.nan)))  # no velocity in the sample: the position only

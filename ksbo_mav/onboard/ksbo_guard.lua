@@ -159,7 +159,8 @@ local HAS_RAD = pcall(function() return ahrs:get_roll_rad() end)
 local function tilt_deg()
   local roll = HAS_RAD and ahrs:get_roll_rad() or ahrs:get_roll()
   local pitch = HAS_RAD and ahrs:get_pitch_rad() or ahrs:get_pitch()
-  return math.deg(math.max(math.abs(roll), math.abs(pitch)))
+  -- the body z axis against the vertical: max(|roll|, |pitch|) reads 35 where roll and pitch of 35 lean 47
+  return math.deg(math.acos(math.max(-1, math.min(1, math.cos(roll) * math.cos(pitch)))))
 end
 
 local function outside_box()
