@@ -144,3 +144,36 @@ def test_a_manoeuvre_outside_the_safety_box_is_refused_before_flying(tmp_path):
         finally:
             v.close()
     assert not (tmp_path / "m.tlog").exists()
+
+
+def test_an_abort_after_the_measured_part_reads_as_an_abort_from_the_log(tmp_path, capsys):
+    """A flight that goes wrong after its end marker (e.g. a tilt abort on the way back) is written so: ``score``
+    reads the outcome the journal records, with no figures; a later flight in the same log is not touched."""
+    from ksbo_mav.mav.tlog import LINK_SENT, TlogWriter
+    from ksbo_mav.mav.validation.manoeuvre_recorder import after_text
+    from ksbo_mav.mav.wire import mavlink
+
+    with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot") as (sim, ep):
+        v = Vehicle.connect(ep)
+        try:
+            v.setup_streams()
+            spec = ManoeuvreSpec.from_dict("hold", {"seconds": 3})
+            a = fly_manoeuvre(v, spec, _monitor(v), gains_label="baseline", tlog_path=tmp_path / "a.tlog")
+            b = fly_manoeuvre(v, spec, _monitor(v), gains_label="recommended", tlog_path=tmp_path / "b.tlog")
+        finally:
+            v.close()
+    assert a.outcome is T.OK and b.outcome is T.OK
+    both = tmp_path / "both.tlog"
+    sender = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
+    sender.robust_parsing = True
+    last_ms = max(r.msg.time_boot_ms for r in read_tlog(a.tlog) if r.msg.get_type() == "LOCAL_POSITION_NED")
+    both.write_bytes(a.tlog.read_bytes())
+    w = TlogWriter(both)
+    w.write(sender.statustext_encode(4, after_text(last_ms + 500, "tilt").encode()).pack(sender), LINK_SENT)
+    w.close()
+    both.write_bytes(both.read_bytes() + b.tlog.read_bytes())
+    recs = recorders_from_tlog(read_tlog(both))
+    assert [(r.label, r.outcome) for r in recs] == [("baseline", "tilt"), ("recommended", "ok")]
+    assert main(["score", str(both), "--json"]) == 0
+    flights = json.loads(capsys.readouterr().out)["flights"]
+    assert [(f["outcome"], bool(f["metrics"])) for f in flights] == [("tilt", False), ("ok", True)]

@@ -29,7 +29,7 @@ from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.tlog import TlogWriter
 from ksbo_mav.mav.validation.hold_manoeuvre import fly_hold
 from ksbo_mav.mav.validation.manoeuvre_frame import ManoeuvreAbort, ManoeuvreFrame
-from ksbo_mav.mav.validation.manoeuvre_recorder import ManoeuvreRecorder, end_text
+from ksbo_mav.mav.validation.manoeuvre_recorder import ManoeuvreRecorder, after_text, end_text
 from ksbo_mav.mav.validation.manoeuvre_spec import ManoeuvreSpec
 from ksbo_mav.mav.validation.mission_manoeuvre import fly_auto_mission
 from ksbo_mav.mav.validation.step_manoeuvre import fly_steps
@@ -171,6 +171,8 @@ def _finish(frame: ManoeuvreFrame, outcome: T, baseline: dict[str, float] | None
         if frame.started and not frame.ended:
             frame.marker(end_text(frame.now_ms(), str(outcome)))
             frame.ended = True
+        elif frame.ended and outcome is not T.OK:  # the log says so too: `score` reads what the journal reads
+            frame.marker(after_text(frame.now_ms(), str(outcome)))
         ours = outcome not in (T.PILOT, T.CRASH, T.LINK, T.FAILSAFE) and g.armed  # never override a failsafe
         if ours and outcome is not T.OK and g.position() is not None:
             frame.back_to_guided()  # stop where it is, out of the autopilot's own mode

@@ -12,7 +12,9 @@ Markers (STATUSTEXTs the tool sends, so they are in the tlog in both directions'
   sample at or after t;
 * ``ksbo val wp <n> <e> <d>`` (one per waypoint, local NED m) and ``ksbo val go t=<ms>`` — the mission's legs and
   the time its mode was confirmed;
-* ``ksbo val end t=<ms> <outcome>`` — the measured part ended at t.
+* ``ksbo val end t=<ms> <outcome>`` — the measured part ended at t;
+* ``ksbo val after t=<ms> <outcome>`` — the flight went wrong after its measured part (e.g. a tilt abort on the
+  way back): the flight's outcome is that, as the journal records it, and it has no figures.
 
 The vehicle's own MISSION_ITEM_REACHED reports are kept (stamped with the newest position sample's time): the
 mission's ``time_s`` is from its start to the first report of its last item, the autopilot's own "done".
@@ -40,6 +42,7 @@ HOLD_RE = re.compile(r"^ksbo val hold t=(\d+)$")
 WP_RE = re.compile(r"^ksbo val wp (\S+) (\S+) (\S+)$")
 GO_RE = re.compile(r"^ksbo val go t=(\d+)$")
 END_RE = re.compile(r"^ksbo val end t=(\d+) (\S+)$")
+AFTER_RE = re.compile(r"^ksbo val after t=(\d+) (\S+)$")
 MASK_POS = 0x0DF8
 
 
@@ -69,6 +72,10 @@ def go_text(t_ms: int) -> str:
 
 def end_text(t_ms: int, outcome: str) -> str:
     return f"{MARK} end t={int(t_ms)} {outcome}"[:50]
+
+
+def after_text(t_ms: int, outcome: str) -> str:
+    return f"{MARK} after t={int(t_ms)} {outcome}"[:50]
 
 
 @dataclass
@@ -123,7 +130,11 @@ class ManoeuvreRecorder:
             self._target, self._prev_target = target, prev
             self.kind, self.t0, self.label = _KIND[m.group(1)], int(m.group(2)), m.group(3) or ""
             return
-        if self.t0 is None or self.end_t is not None:
+        if self.t0 is None:
+            return
+        if self.end_t is not None:
+            if (m := AFTER_RE.match(text)):
+                self.outcome = m.group(2)
             return
         if (m := CFG_RE.match(text)):
             self.cfg = tuple(float(g) for g in m.groups())  # type: ignore[assignment]
@@ -210,6 +221,8 @@ def recorders_from_tlog(records: list[Any]) -> list[ManoeuvreRecorder]:
     out: list[ManoeuvreRecorder] = []
     rec = ManoeuvreRecorder()
     for r in records:
+        if out and r.sent and r.msg.get_type() == "STATUSTEXT" and AFTER_RE.match(str(r.msg.text).replace("\0", "")):
+            out[-1].feed(r.msg, r.sent)  # what happened after the last flight's measured part
         rec.feed(r.msg, r.sent)
         if rec.finished:
             out.append(rec)
