@@ -166,8 +166,9 @@ class Guided:
         far the vehicle's newest received stamp already was past the step's time when it went out: a slow client
         (or machine) shows up here, a lossy link in the sequence numbers.
 
-        In lockstep each setpoint is one simulator step; a setpoint with no answer within ``resend_s`` is re-sent
-        (a lost packet must not stall the simulator).
+        In lockstep each setpoint is one simulator step; a setpoint with no answer within ``resend_s`` (wall
+        time) is re-sent with its stamp (a lost packet must not stall the simulator; the simulator steps a
+        re-sent stamp once, so a late answer on a loaded machine does not shift the stream).
         """
         clock = self.tel.clock
         if not clock.valid:

@@ -26,8 +26,9 @@ float32 for the input term of P(a)); time_boot_ms / time_usec are simulated time
 SET_MESSAGE_INTERVAL or REQUEST_DATA_STREAM (ArduCopter groups).
 
 Lockstep (``--lockstep``; details in ``server``): each SET_POSITION_TARGET_LOCAL_NED advances one control step
-(20 ms) and is answered by that step's LOCAL_POSITION_NED; MAV_CMD_USER_2 (31011, p1 = seconds) advances
-without setpoints and is ACKed at the end; otherwise time stands still (idle HEARTBEAT each wall second).
+(20 ms) and is answered by that step's LOCAL_POSITION_NED (a re-sent one, same stamp, is answered again, not
+stepped twice); MAV_CMD_USER_2 (31011, p1 = seconds) advances without setpoints and is ACKed at the end;
+otherwise time stands still (idle HEARTBEAT each wall second).
 
 Simulator-only commands (``commands``): 31010 set state (p1..p3 NED position, p4..p6 NED velocity; armed; zeroes
 the controller: how a figure-8 episode starts at the origin with a chosen initial velocity), 31011 lockstep step,

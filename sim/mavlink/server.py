@@ -6,7 +6,10 @@ Lockstep protocol (``--lockstep``): simulated time never advances on its own.
 1. Every SET_POSITION_TARGET_LOCAL_NED addressed to the vehicle (any peer) is applied at the current simulated
    time and then advances time by exactly one control period (20 ms for the planar vehicle), whether or not it
    was used (mode, armed). After that step the due telemetry streams are sent, plus one LOCAL_POSITION_NED in
-   any case: the client reads it as "step done" and pairs it with the next setpoint.
+   any case: the client reads it as "step done" and pairs it with the next setpoint. A setpoint stamped
+   (``time_boot_ms``, 0 = unstamped) as the one that made the last step, with no step since, is a re-send (its
+   answer was late or lost): answered with LOCAL_POSITION_NED again, nothing else, so a client that re-sends on
+   a wall-clock timeout cannot push simulated time ahead of its stream on a slow machine.
 2. COMMAND_LONG MAV_CMD_USER_2 (31011), p1 = seconds: advance that many seconds (rounded up to whole control
    periods), streaming telemetry on the simulated clock as usual, then COMMAND_ACK. Used to wait for takeoff,
    landing or a hold without streaming setpoints.
@@ -89,6 +92,7 @@ class Server:
         self.lockstep, self.speedup, self.sysid, self.compid = lockstep, float(speedup), sysid, compid
         self.now_us = 0
         self.stop = False
+        self._stepped: tuple[int, int] | None = None  # lockstep: (stamp of the setpoint that stepped, time after)
         self.mav = mavlink.MAVLink(link, srcSystem=sysid, srcComponent=compid)
         self.estimator = Estimator(model.ctrl_dt, seed=seed)
         self.flight = Flight(model, self.estimator, self._notify)
@@ -259,6 +263,11 @@ class Server:
         self._apply_faults()
 
     def _setpoint(self, msg) -> None:
+        if self.lockstep and msg.time_boot_ms and self._stepped == (msg.time_boot_ms, self.now_us):
+            # a re-send: answer it, do not step again
+            self.telemetry.send(LOCAL_POSITION_NED, self.now_us)
+            self.link.flush()
+            return
         if msg.coordinate_frame == 1:  # MAV_FRAME_LOCAL_NED; other frames are ignored
             m = msg.type_mask
 
@@ -271,6 +280,7 @@ class Server:
             self.flight.set_target(pos, vel, acc, self.now_us)
         if self.lockstep:
             self.advance(1, reply=True)
+            self._stepped = (msg.time_boot_ms, self.now_us)
 
     # --- main loop -------------------------------------------------------------------------------------
     def run(self) -> None:
