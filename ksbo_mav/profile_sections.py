@@ -172,16 +172,23 @@ class CampaignSpec:
     ``budget``: optimiser trials including the baseline; a copter's profile sets what one battery flies.
     ``early_stop``: end the search before the budget once the next flight's expected gain stays below the re-flight
     noise (times ``stop_ratio``) for ``stop_patience`` trials in a row, after ``stop_min_trials`` trials
-    (:mod:`ksbo_mav.opt.methods.stopping`)."""
+    (:mod:`ksbo_mav.opt.methods.stopping`). ``trial_step``: every trial flies a position-only step after its
+    figure-8 and aborts, as unsafe, when it leans past the tilt limit less ``trial_step_tilt_margin_deg``
+    (:mod:`ksbo_mav.mav.trial_step`)."""
 
     budget: int = 30
     early_stop: bool = False
     stop_min_trials: int = 4
     stop_patience: int = 1
     stop_ratio: float = 1.0
+    trial_step: bool = False
+    trial_step_tilt_margin_deg: float = 0.0
 
     def __post_init__(self) -> None:
         _positive(self, "budget", "stop_min_trials", "stop_patience", "stop_ratio")
+        if not 0 <= self.trial_step_tilt_margin_deg < 30:
+            raise InputError(f"trial_step_tilt_margin_deg must be in [0, 30) deg, got "
+                             f"{self.trial_step_tilt_margin_deg:g}")
 
 
 #: Manoeuvres a validation may fly (:mod:`ksbo_mav.mav.validation`).

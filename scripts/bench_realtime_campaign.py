@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import statistics
 import sys
 import time
@@ -30,12 +31,45 @@ from _bench_common import BENCH, append_record, machine, write_result  # noqa: E
 
 from ksbo_mav.campaign.validation_log import ValidationJournal  # noqa: E402
 from ksbo_mav.campaign.verdict import judge_pairs, worst  # noqa: E402
+from ksbo_mav.errors import InputError  # noqa: E402
+from ksbo_mav.mav.tlog import read_tlog  # noqa: E402
+from ksbo_task.limit_checks import tilt_rad  # noqa: E402
 
 RUNS = BENCH / "realtime-campaign" / "runs.jsonl"
 
 
 def _trials(d: Path) -> list[dict]:
     return [json.loads(p.read_text()) for p in sorted((d / "trials").glob("trial_*.json"))]
+
+
+def peak_lean_deg(tlog: str | Path) -> float | None:
+    """The largest lean (deg, acos(cos roll cos pitch) of the vehicle's ATTITUDE) of a validation flight's tlog,
+    from its start marker to its end marker (or the log's end); None without ATTITUDE there or a readable log."""
+    try:
+        records = read_tlog(tlog)
+    except InputError:
+        return None
+    peak, inside = None, False
+    for r in records:
+        kind = r.msg.get_type()
+        if r.sent and kind == "STATUSTEXT":
+            text = str(r.msg.text)
+            inside = inside or text.startswith("ksbo val start")
+            if text.startswith("ksbo val end"):
+                break
+        elif inside and not r.sent and kind == "ATTITUDE":
+            lean = math.degrees(tilt_rad(r.msg.roll, r.msg.pitch))
+            peak = lean if peak is None else max(peak, lean)
+    return peak
+
+
+def _step_leans(entries: list) -> dict[str, list[float | None]]:
+    """Peak lean of each step flight of the recommendation's pair, by gain set (baseline, recommendation)."""
+    out: dict[str, list[float | None]] = {}
+    for e in entries:
+        if e.manoeuvre == "steps" and e.pair == "recommendation" and e.tlog:
+            out.setdefault(e.gains, []).append(peak_lean_deg(e.tlog))
+    return out
 
 
 def record(d: Path, stack: str, speedup: float, sensors: str, command: str, note: str) -> dict:
@@ -55,6 +89,8 @@ def record(d: Path, stack: str, speedup: float, sensors: str, command: str, note
                                  "spread": j.spread, "diff": j.diff, "base_aborted": j.base_aborted,
                                  "cand_aborted": j.cand_aborted} for m, j in pv.judged.items()}
     val_wall = sum(e.ended_unix - e.started_unix for e in entries if e.ended_unix and e.started_unix)
+    cfg = json.loads((d / "campaign.json").read_text()).get("config", {})
+    trial_leans = {k: [t["step"].get("peak_lean_deg") for t in ts if t.get("step")] for k, ts in by_label.items()}
     return {"stack": stack, "speedup": speedup, "sensors": sensors, "command": command, "note": note,
             "dir": str(d), "n_trials": res["n_trials"], "flights": len(trials),
             "figure8": "on board" if any(t.get("trajectory", {}).get("on_board") for t in trials) else "streamed",
@@ -69,7 +105,11 @@ def record(d: Path, stack: str, speedup: float, sensors: str, command: str, note
             "validation_flights": len(entries), "validation_wall_s": round(val_wall, 1),
             "validation_outcomes": {o: sum(e.outcome.value == o for e in entries)
                                     for o in {e.outcome.value for e in entries}},
-            "verdicts": verdicts}
+            "verdicts": verdicts, "trial_step": bool(cfg.get("trial_step")),
+            "trial_step_leans": {k: v for k, v in trial_leans.items() if v},
+            "trial_step_aborts": sum(t["outcome"] == "tilt" and t["message"].startswith("position step")
+                                     for t in trials),
+            "validation_step_leans": _step_leans(entries)}
 
 
 def _search_end(s: dict | None) -> str:
@@ -96,6 +136,33 @@ def _change(base: list[float], cand: list[float]) -> str:
 def _fig(xs: list[float]) -> str:
     return (f"{statistics.mean(xs):.3g} ({min(xs):.3g}–{max(xs):.3g})" if len(xs) > 1
             else f"{xs[0]:.3g}" if xs else "–")
+
+
+def _leans(xs: list[float | None] | None) -> str:
+    xs = [x for x in xs or [] if x is not None]
+    return " / ".join(f"{x:.1f}" for x in xs) if xs else "–"
+
+
+def transfer_rows(runs: list[dict]) -> list[str]:
+    """The training score against the validation's steps, per campaign whose step flights' leans were measured."""
+    rows = ["| stack | sensors | training trial | lap-2 RMS baseline → recommendation (training score) | "
+            "trials aborted on the step | training step lean (deg): baseline; confirmation | validation step "
+            "flights: peak lean (deg) baseline → recommendation | recommendation's step flights aborted | verdict |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for r in runs:
+        leans = r.get("validation_step_leans")
+        if not leans:
+            continue
+        steps = r["verdicts"].get("recommendation", {}).get("steps", {})
+        verdict = "; ".join(f"{m}: {v['verdict']}" for m, v in r["verdicts"].get("recommendation", {}).items())
+        trained = r.get("trial_step_leans", {})
+        rows.append(f"| {r['stack']} | {r['sensors']} | {'figure-8 + step' if r.get('trial_step') else 'figure-8'} "
+                    f"| {_m(r['baseline_rms'])} → {_m(r['confirm_rms'])}{_change(r['baseline_rms'], r['confirm_rms'])} "
+                    f"| {r.get('trial_step_aborts', 0) if r.get('trial_step') else '–'} | "
+                    f"{_leans(trained.get('opt', [])[:1])}; {_leans(trained.get('confirm'))} | "
+                    f"{_leans(leans.get('baseline'))} → {_leans(leans.get('recommendation'))} | "
+                    f"{steps.get('cand_aborted', '–')} of {len(leans.get('recommendation', []))} | {verdict} |")
+    return rows if len(rows) > 2 else []
 
 
 def report(write: bool) -> str:
@@ -150,7 +217,13 @@ def report(write: bool) -> str:
         "Validation figures of the recommendation against the baseline (deciding figure: steps mean settling "
         "time s, or the mean overshoot % where a step did not settle within its dwell; hold RMS drift m; AUTO "
         "mission cross-track RMS m; lower is better):",
-        "\n".join(detail), "Commands:\n\n" + cmds])
+        "\n".join(detail), *(["The training score against the validation's position steps (what the optimiser saw "
+        "against what a pilot's position change asks): the training trial with the figure-8 alone, or with the "
+        "position step after it (`tune --trial-step`); lean = acos(cos roll · cos pitch) of the tlog's ATTITUDE, "
+        "the training step's from the trial records (the baseline's first trial; the confirmation), the "
+        "validation's from each step flight's tlog, from its start marker to its end marker (an aborted flight's "
+        "goes out when the monitor stops it):", "\n".join(transfer)] if (transfer := transfer_rows(runs)) else []),
+        "Commands:\n\n" + cmds])
     print(body)
     if write:
         write_result("realtime-campaign", body)

@@ -25,6 +25,8 @@ from ksbo_mav.profiles import load_profile
 AP, PLANAR = load_profile("ardupilot-copter"), load_profile("sim-planar")
 #: The copter profile with a mission rate of its own (the shipped profiles all fly at 50 Hz).
 AP20 = dataclasses.replace(AP, mission_spec=dataclasses.replace(AP.mission_spec, rate_hz=20))
+#: The copter profile with the trial's position step on ([campaign] trial_step).
+AP_STEP = dataclasses.replace(AP, campaign_spec=dataclasses.replace(AP.campaign_spec, trial_step=True))
 
 
 def _renamed(profile, name: str):
@@ -91,6 +93,16 @@ def _new_args(tmp_path, *cli: str):
     ("rate", "profile", lambda tmp: settle(CampaignConfig(dir="x"), AP20)[1], MissionRate(20, lowerable=True)),
     ("rate", "command_line (new campaign)", lambda tmp: settle(CampaignConfig(dir="x", rate_hz=10), AP20)[1],
      MissionRate(10, lowerable=False)),
+    # the trial's position step: the command line's, else the stored campaign's, else the profile's; a campaign
+    # stored before the setting existed flew none
+    ("trial_step", "command_line",
+     lambda tmp: settle(CampaignConfig(dir="x", trial_step=False), AP_STEP)[0].trial_step, False),
+    ("trial_step", "stored",
+     lambda tmp: settle(config_from_args(_resume_args(tmp, {"trial_step": True})), AP)[0].trial_step, True),
+    ("trial_step", "stored (recorded before the setting)",
+     lambda tmp: settle(CampaignConfig(dir="x"), AP_STEP, {"config": {"dir": "x"}})[0].trial_step, False),
+    ("trial_step", "profile", lambda tmp: settle(CampaignConfig(dir="x"), AP_STEP)[0].trial_step, True),
+    ("trial_step", "profile (default)", lambda tmp: settle(CampaignConfig(dir="x"), AP)[0].trial_step, False),
     ("n_prior", "command_line", lambda tmp: prior_size(CampaignConfig(dir="x", n_prior=5), "local"), 5),
     ("n_prior", "default (local)", lambda tmp: prior_size(CampaignConfig(dir="x"), "local"), 8),
     ("n_prior", "default (sim)", lambda tmp: prior_size(CampaignConfig(dir="x"), "sim"), 36),
@@ -139,7 +151,8 @@ BAD = {"dir": 7, "profile": "", "method": "ksb", "budget": 0, "seed": -1, "prior
        "early_stop": "yes", "min_trials": 0, "confirm": -1, "widen": "yes", "warm_start": " ", "baseline_every": 2.5,
        "on_drift": "ignore", "rate_hz": 30,
        "validation": "on", "accept": 1, "end": "crash", "onboard_guard": "off", "settle_s": float("nan"),
-       "trial_source": "radio", "sysid": 300, "compid": 0, "safety": {"z_min_m": "low"}, "options": ["beta"]}
+       "trial_source": "radio", "trial_step": "yes", "sysid": 300, "compid": 0, "safety": {"z_min_m": "low"},
+       "options": ["beta"]}
 
 
 def test_every_declared_setting_is_a_config_field_and_has_a_bad_value_here():

@@ -52,6 +52,7 @@ class CampaignConfig:
     end: str = _default("end")
     onboard_guard: bool = _default("onboard_guard")
     trial_source: str = _default("trial_source")
+    trial_step: bool | None = _default("trial_step")  # None: the profile's, decided by settle()
     settle_s: float = _default("settle_s")
     sysid: int | None = _default("sysid")
     compid: int | None = _default("compid")
@@ -137,9 +138,10 @@ def settle(cfg: CampaignConfig, profile: Any, stored: Mapping[str, Any] | None =
 
     ``cfg`` holds what the command line gives over the stored campaign's settings (``config_from_args``, by
     :func:`resolve`); ``stored`` is campaign.json on a resume (None: a new campaign). The budget: ``cfg``'s, else
-    the profile's ``[campaign] budget``; the same for ``early_stop`` and ``min_trials`` (its ``early_stop`` and
-    ``stop_min_trials``). The mission rate: ``--rate``, else the rate the campaign flew at (the
-    link check may have lowered it when it started), else the profile's."""
+    the profile's ``[campaign] budget``; the same for ``early_stop``, ``min_trials`` and ``trial_step`` (its
+    ``early_stop``, ``stop_min_trials`` and ``trial_step``; a resumed campaign stored without ``trial_step`` flew
+    none). The mission rate: ``--rate``, else the rate the campaign flew at (the link check may have lowered it
+    when it started), else the profile's."""
     budget = resolve(command_line={} if cfg.budget is None else {"budget": cfg.budget},
                      profile={"budget": int(profile.campaign_spec.budget)})["budget"]
     flown = ((stored or {}).get("mission") or {}).get("rate_hz")
@@ -147,10 +149,19 @@ def settle(cfg: CampaignConfig, profile: Any, stored: Mapping[str, Any] | None =
                    stored={"rate_hz": int(flown)} if flown else {},
                    profile={"rate_hz": int(profile.mission_spec.rate_hz)})["rate_hz"]
     spec = profile.campaign_spec
-    stop = resolve(command_line={k: v for k, v in (("early_stop", cfg.early_stop), ("min_trials", cfg.min_trials))
-                                 if v is not None},
-                   profile={"early_stop": bool(spec.early_stop), "min_trials": int(spec.stop_min_trials)})
+    step = cfg.trial_step
+    if step is None and stored is not None and "trial_step" not in (stored.get("config") or {}):
+        step = False  # a campaign recorded before the setting existed flew its figure-8 alone
+    given = (("early_stop", cfg.early_stop), ("min_trials", cfg.min_trials), ("trial_step", step))
+    stop = resolve(command_line={k: v for k, v in given if v is not None},
+                   profile={"early_stop": bool(spec.early_stop), "min_trials": int(spec.stop_min_trials),
+                            "trial_step": bool(spec.trial_step)})
     settled = replace(cfg, budget=budget, **stop).validate()
+    if settled.trial_step:  # a profile the step cannot be flown on is refused before anything is written
+        from ksbo_mav.mav.monitor import limits_from_profile
+        from ksbo_mav.mav.trial_step import TrialStep
+
+        TrialStep.from_profile(profile, limits_from_profile(profile, settled.safety))
     return settled, MissionRate(rate, lowerable=stored is None and not cfg.rate_hz)
 
 

@@ -26,7 +26,7 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
             return np.array(doc["X"]), np.array(doc["y"])
         n = prior_size(cfg, kind)
         X = local_prior_design(n, x0, bounds, cfg.seed, radius=SIM_PRIOR_RADIUS)
-        what, y = simulated_prior(profile, X, cfg.seed, log)
+        what, y = simulated_prior(profile, X, cfg.seed, log, trial_step=bool(cfg.trial_step))
         write_file(d.prior, json.dumps({"kind": "sim", "X": X.tolist(), "y": y.tolist()}))
         log(f"prior: {n} {what} episodes around the baseline (in process, nothing flown)")
         return X, y
@@ -39,11 +39,13 @@ def campaign_prior(kind: str, cfg: CampaignConfig, d: CampaignDir, profile: Any,
     return X, np.array(y)
 
 
-def simulated_prior(profile: Any, X: np.ndarray, seed: int, log: Callable[[str], None]) -> tuple[str, np.ndarray]:
+def simulated_prior(profile: Any, X: np.ndarray, seed: int, log: Callable[[str], None],
+                    trial_step: bool = False) -> tuple[str, np.ndarray]:
     """(name of the simulator, (n,) P of each row of X (n, d)) flown in process: the planar simulator for the
     planar profile, our JSBSim copter for the copter profiles (the vehicle class the profile names; P scored
-    against its own baseline flight, as on the vehicle). An aborted or crashed episode gives the P of an abort
-    (-0.1) so that the model sees where the simulated vehicle failed."""
+    against its own baseline flight, as on the vehicle; with ``trial_step`` each episode flies the campaign's
+    position step too). An aborted or crashed episode gives the P of an abort (-0.1) so that the model sees where
+    the simulated vehicle failed."""
     from ksbo_mav.simulated.copter_objective import COPTER_PLANTS
 
     plant = next((k for k, (name, _) in COPTER_PLANTS.items() if name == profile.name), None)
@@ -53,7 +55,7 @@ def simulated_prior(profile: Any, X: np.ndarray, seed: int, log: Callable[[str],
         return "simulator", SimObjective(profile, seed=seed).batch(X)
     from ksbo_mav.simulated.copter_objective import CopterObjective
 
-    obj = CopterObjective(plant)
+    obj = CopterObjective(plant, trial_step=trial_step)
     y = []
     for k, x in enumerate(X):
         if k % 8 == 0:

@@ -161,7 +161,8 @@ class Campaign:
         cfg = self.cfg
         journal = Journal(self.dir.journal)
         objective = MavlinkObjective(v, self.base, self.dir.trials, safety=cfg.safety, settle_s=cfg.settle_s,
-                                     first_index=self.dir.next_trial_index(), start_seed=cfg.seed, log=self.log)
+                                     first_index=self.dir.next_trial_index(), start_seed=cfg.seed,
+                                     trial_step=bool(cfg.trial_step), log=self.log)
         trials = TrialLoop(objective, journal, self.progress, self.log, BatteryGuard(v, self.resume_hint))
         trials.drift = DriftWatch(every=cfg.baseline_every, on_drift=cfg.on_drift, resume_hint=self.resume_hint)
         trials.drift.restore(journal)

@@ -137,6 +137,9 @@ SETTINGS: tuple[Setting, ...] = (
             "--no-onboard-guard flies without it"),
     Setting("trial_source", Choice(TRIAL_SOURCES), "onboard", "--trial-source",
             "the figure-8 flown by the onboard guard (ArduPilot) or streamed by the tuner"),
+    Setting("trial_step", Unset(BOOL), None, "--trial-step",
+            "each trial also flies a position step after its figure-8; leaning past the tilt limit there aborts "
+            "it (unset: the profile's)"),
     Setting("settle_s", Interval(0.0), 1.0, None, "seconds of hover at the start point before a trial's figure-8"),
     Setting("sysid", Unset(_whole(1, 255)), None, "--sysid", "our MAVLink system id (unset: 245)"),
     Setting("compid", Unset(_whole(1, 255)), None, "--compid", "our MAVLink component id (unset: 191)"),

@@ -12,7 +12,7 @@ from ksbo_mav.opt import METHODS
 
 #: Options that define a campaign; on --resume, one given with a different value than stored is refused.
 _DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen", "rate_hz", "warm_start",
-             "early_stop", "min_trials")
+             "early_stop", "min_trials", "trial_step")
 #: The option groups of `tune --help`, in the order a pilot needs them (connection first: always needed).
 GROUPS = ("connection (exactly one)", "campaign directory", "profile and budget", "end of the campaign",
           "optimiser", "mission and drift", "help")
@@ -80,6 +80,8 @@ def add_parser(subparsers) -> None:
     g = p.add_argument_group(GROUPS[5])
     g.add_argument("--trial-source", dest="trial_source", metavar="{onboard,ground}",
                    help=_help("trial_source"))
+    g.add_argument("--trial-step", dest="trial_step", action=argparse.BooleanOptionalAction, default=None,
+                   help=_help("trial_step"))
     g.add_argument("--rate", dest="rate_hz", type=int, metavar="HZ", help=_help("rate_hz", "; 50, 25, 20 or 10 "
                                                                                        "(docs/links.md)"))
     g.add_argument("--baseline-every", type=int, metavar="N", help=_help("baseline_every"))

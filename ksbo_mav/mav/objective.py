@@ -34,6 +34,7 @@ from ksbo_mav.mav.monitor import Monitor, limits_from_profile
 from ksbo_mav.mav.outcome import TrialOutcome as T
 from ksbo_mav.mav.trial_flight import TrialFlight
 from ksbo_mav.mav.trial_record import score_trial, write_record
+from ksbo_mav.mav.trial_step import TrialStep
 from ksbo_mav.mav.vehicle import Vehicle
 from ksbo_task.flight import Flight
 
@@ -52,11 +53,14 @@ class MavlinkObjective:
         first_index: number of the next trial (a resumed campaign continues its numbering).
         start_seed: seed of the moving starts' random velocities (with the trial number; missions with
             ``start_speed`` only).
+        trial_step: every trial flies the profile's position step after its figure-8; a lean past the step's tilt
+            limit aborts it (:mod:`ksbo_mav.mav.trial_step`).
     """
 
     def __init__(self, vehicle: Vehicle, baseline_params: dict[str, float], out_dir: str | Path, *,
                  safety: dict[str, float] | None = None, settle_s: float = 1.0, link_wait_s: float = 30.0,
-                 first_index: int = 0, start_seed: int = 0, log: Callable[[str], None] = lambda s: None) -> None:
+                 first_index: int = 0, start_seed: int = 0, trial_step: bool = False,
+                 log: Callable[[str], None] = lambda s: None) -> None:
         self.vehicle = vehicle
         self.profile = vehicle.profile
         self.baseline_gains = vehicle.gain_map.from_params(baseline_params)
@@ -67,6 +71,10 @@ class MavlinkObjective:
         check_moving_start(self.mission, self.monitor.limits)
         self.trial_flight = TrialFlight(vehicle, self.monitor, baseline_params, settle_s=settle_s,
                                         link_wait_s=link_wait_s, log=log)
+        if trial_step:
+            step = self.trial_flight.step = TrialStep.from_profile(self.profile, self.monitor.limits)
+            log(f"trials: each figure-8 followed by a {float(sum(v * v for v in step.offset_ned)) ** 0.5:g} m "
+                f"position step (no feed-forward), aborted past {step.tilt_max_deg:g} deg of lean")
         #: Number of the next trial.
         self.index = first_index
         self.start_seed = start_seed
@@ -100,7 +108,8 @@ class MavlinkObjective:
         flown = self.trial_flight.fly(x, approach, stem.with_suffix(".tlog"), self.rms_ref)
         scored = score_trial(m, flown)
         flight = write_record(stem, i, label, x, self.profile.names, v.gain_map.to_params(x), flown, scored, started,
-                              {"start_velocity_ned": approach.velocity.tolist(), "stress_start": stress})
+                              {"start_velocity_ned": approach.velocity.tolist(), "stress_start": stress,
+                               **({"step": flown.step} if flown.step is not None else {})})
         outcome = flight.outcome
         if outcome is not T.OK:
             self.log(f"trial {i} aborted ({outcome.text}): {scored.message}")

@@ -28,6 +28,7 @@ from ksbo_mav.errors import VerifyError
 from ksbo_mav.mav.tlog import TlogWriter
 from ksbo_mav.mav import guard_trip, link_return, onboard_trial
 from ksbo_mav.mav.trajectory import TrialRecorder, after_text, board_text, end_text, ref_text, start_text
+from ksbo_mav.mav.trial_step import StepRecord, TrialStep, fly_step
 from ksbo_mav.mav.vehicle import Vehicle
 
 
@@ -68,6 +69,8 @@ class FlownTrial:
         interrupted: the Ctrl-C that ended the trial (re-raised once the trial is recorded), else None.
         link_back: after a lost link, the link came back, the baseline is restored and the vehicle is armed in
             GUIDED again (left so by the guard, or taken back from its BRAKE/LOITER): the campaign may go on.
+        step: the figures of the position step flown after the figure-8 (:mod:`ksbo_mav.mav.trial_step`), None
+            when the trial flies none or did not reach it.
     """
 
     recorder: TrialRecorder
@@ -78,6 +81,7 @@ class FlownTrial:
     link: LinkStats
     interrupted: KeyboardInterrupt | None = None
     link_back: bool = False
+    step: dict[str, Any] | None = None
 
 
 class TrialFlight:
@@ -99,6 +103,9 @@ class TrialFlight:
         self.settle_s, self.link_wait_s, self.log = settle_s, link_wait_s, log
         #: Fly the figure-8 on board when the guard carries it (False: stream it from the ground anyway).
         self.on_board = True
+        #: The position step every trial flies after its figure-8 (None: none).
+        self.step: TrialStep | None = None
+        self._step_record: StepRecord | None = None
 
     def fly(self, x: np.ndarray, approach: Approach, tlog: Path, rms_ref: float | None) -> FlownTrial:
         """Fly the gains ``x`` (d,), already checked against the trust region, with a two-way tlog at ``tlog``;
@@ -112,6 +119,7 @@ class TrialFlight:
         lag: list[float] = []
         outcome, message, L, stop = T.OK, "", 0, None
         self._returned: link_return.LinkReturn | None = None
+        self._step_record = None
         back = False
         try:
             try:
@@ -146,7 +154,8 @@ class TrialFlight:
             link.tlog.close()
             link.tlog = None
         stats = LinkStats(lost_packets=rec.lost, rate_reasserts=v.telemetry.reasserts - reasserts0, lag_ms=tuple(lag))
-        return FlownTrial(rec, outcome, message, L, restored, stats, stop, back)
+        step = None if self._step_record is None else self._step_record.figures()
+        return FlownTrial(rec, outcome, message, L, restored, stats, stop, back, step)
 
     def _after_link(self, restored: bool) -> tuple[str, bool]:
         """Once the link is back and the baseline restored: end the guard's watch, take the vehicle back from what
@@ -215,6 +224,7 @@ class TrialFlight:
             end = m.setpoint_at(n * dt / 1000.0)[0]
             onboard_trial.watch(v, t0 + n * dt + int(self.settle_s * 1000), lambda s: self._check(s, None), self.log)
             g.hold_at(end)
+            self._fly_step(end)
             return n
         # Step j's setpoint goes out when the vehicle clock reaches t0 + j*dt, stamped with the time its content is
         # for; every sample is checked against the reference at its own stamp, and scored against the logged
@@ -229,7 +239,24 @@ class TrialFlight:
         # here (and count as this trial's abort) instead of tumbling the vehicle during the restore, unseen.
         g.follow(lambda j: (end, None, None), settle, dt, lambda s: self._check(s, None), self.log)
         g.hold_at(end)  # end on a position-only target (no dead reckoning)
+        self._fly_step(end)
         return n
+
+    def _fly_step(self, start: np.ndarray) -> None:
+        """The position step after the figure-8 (when the trial flies one), watched with the step's tilt limit: a
+        trip aborts the trial as the monitor's would."""
+        if self.step is None:
+            return
+        mon = self.step.monitor(self.monitor)
+        self._step_record = StepRecord(self.step, start)
+
+        def check(s: Any) -> None:
+            bad = mon.check_heartbeat(self.vehicle.guided.heartbeat) or \
+                mon.check_sample(s, self.vehicle.telemetry.last_att, None)
+            if bad:
+                raise _Abort(bad[0], f"position step after the figure-8: {bad[1]}")
+
+        fly_step(self.vehicle, self._step_record, check, self.log)
 
     def _finish(self, rec: TrialRecorder, outcome: T, L: int,
                 trial_params: dict[str, float]) -> tuple[bool, tuple[T, str] | None]:

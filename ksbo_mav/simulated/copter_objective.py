@@ -7,7 +7,10 @@ baseline flown once at construction, so the baseline scores 0.5. The profile's `
 every sample by the shared monitor code (:func:`ksbo_task.limit_checks.check_state`): a flight that trips them is
 *aborted* (the tuner would stop it and restore the baseline; the backup's recovery itself is not simulated in
 process), one the simulator reports as crashed is *crashed*. The JSBSim model is deterministic: re-flying the same
-gains gives the same P (a SITL's repeat noise is a few per cent of RMS).
+gains gives the same P (a SITL's repeat noise is a few per cent of RMS). With ``trial_step`` each flight also flies
+the campaign's position step after the figure-8 (:mod:`ksbo_mav.mav.trial_step`: hold the end point for the
+settle, then the single position target for the dwell), aborted when it leans past the step's tilt limit, so a
+simulated prior shows the optimiser where the flown trials would abort on the step.
 
 Search box: the profile box intersected with the campaign's trust region around the baseline
 (:func:`ksbo_mav.mav.gains.trust_region`), i.e. where ``ksbo-mav tune`` would let a trial go.
@@ -22,6 +25,7 @@ import numpy as np
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.monitor import limits_from_profile
+from ksbo_mav.mav.trial_step import TrialStep, lean_deg
 from ksbo_mav.opt.evaluation import Evaluation, Outcome
 from ksbo_mav.profiles import Profile, load_profile
 from ksbo_task.limit_checks import check_state
@@ -41,7 +45,7 @@ class CopterObjective:
         rms_ref: lap-2 RMS (m) of the baseline; n_flights: flights flown so far.
     """
 
-    def __init__(self, plant: str = "copter3d-ardupilot") -> None:
+    def __init__(self, plant: str = "copter3d-ardupilot", trial_step: bool = False, settle_s: float = 1.0) -> None:
         from ksbo_sim.copter3d import Copter3D
 
         try:
@@ -54,6 +58,8 @@ class CopterObjective:
         self.figure = Mission.from_profile(self.profile).figure8h  # the campaign's mission, lead-in included
         self.limits = limits_from_profile(self.profile)
         self.ratio = float(self.profile.score_spec.unsafe_rms_ratio)
+        self.step = TrialStep.from_profile(self.profile, self.limits) if trial_step else None
+        self.settle_s = settle_s
         self.baseline = np.asarray(self.profile.default, dtype=float)
         self.bounds = opt_bounds(self.profile, self.baseline)
         self.n_flights = 0
@@ -84,7 +90,28 @@ class CopterObjective:
                               (float(ref[k, 0]), float(ref[k, 1]), float(-ref[k, 2])))
             if hit is not None:
                 return float(f.rms_lap2), Outcome.ABORTED, hit[1]
+        lean = self._step_lean()
+        if lean is not None and lean > self.step.tilt_max_deg:
+            return float(f.rms_lap2), Outcome.ABORTED, f"position step after the figure-8: tilt {lean:.1f} deg"
         return float(f.rms_lap2), Outcome.COMPLETE, ""
+
+    def _step_lean(self) -> float | None:
+        """With a trial step: fly it on from where the figure-8 left the vehicle (the end point held for the
+        settle, then the step's target for its dwell, position-only setpoints); its largest lean (deg)."""
+        if self.step is None:
+            return None
+        from ksbo_sim.vehicle import Setpoint
+
+        end = self.figure.state(float(self.figure.duration))[0]
+        target = np.asarray(end, float) + np.asarray(self.step.offset_ned, float)
+        dt = self.vehicle.ctrl_dt
+        for _ in range(int(round(self.settle_s / dt))):
+            self.vehicle.step(Setpoint(pos=np.asarray(end, float)))
+        peak = 0.0
+        for _ in range(int(round(self.step.dwell_s / dt))):
+            st = self.vehicle.step(Setpoint(pos=target))
+            peak = max(peak, lean_deg(float(st.rpy[0]), float(st.rpy[1])))
+        return peak
 
     def score(self, rms: float) -> float:
         """P of a lap-2 RMS (module docstring)."""
