@@ -205,6 +205,7 @@ def report(write: bool) -> str:
     machine_line = (f"Machine: {newest} (newest record). Records: `runs.jsonl`, one per "
                     "campaign (`python scripts/bench_realtime_campaign.py record DIR ...`); settings, commands and "
                     "reasons: `benchmarks/notes/realtime-sensors.md`.")
+    transfer = transfer_rows(runs)
     body = "\n\n".join([
         machine_line, "\n".join(rows),
         "Each row is one campaign of the tool's defaults (`ksbo-mav tune DIR --end hold`: the profile's budget 10 "
@@ -214,16 +215,16 @@ def report(write: bool) -> str:
         "Setpoints late: how far past its due time on the vehicle's clock the worst setpoint of any trial went out, "
         "and the largest share of a trial's setpoints sent late; the verdict is the campaign's own (better / no "
         "measurable change / worse beyond the repeats' spread).",
+        *(["The training score against the validation's position steps (what the optimiser saw against what a "
+           "pilot's position change asks): the training trial with the figure-8 alone, or with the position step "
+           "after it (`tune --trial-step`); lean = acos(cos roll · cos pitch) of the tlog's ATTITUDE, the training "
+           "step's from the trial records (the baseline's first trial; the confirmation), the validation's from "
+           "each step flight's tlog, from its start marker to its end marker (an aborted flight's goes out when "
+           "the monitor stops it):", "\n".join(transfer)] if transfer else []),
         "Validation figures of the recommendation against the baseline (deciding figure: steps mean settling "
         "time s, or the mean overshoot % where a step did not settle within its dwell; hold RMS drift m; AUTO "
         "mission cross-track RMS m; lower is better):",
-        "\n".join(detail), *(["The training score against the validation's position steps (what the optimiser saw "
-        "against what a pilot's position change asks): the training trial with the figure-8 alone, or with the "
-        "position step after it (`tune --trial-step`); lean = acos(cos roll · cos pitch) of the tlog's ATTITUDE, "
-        "the training step's from the trial records (the baseline's first trial; the confirmation), the "
-        "validation's from each step flight's tlog, from its start marker to its end marker (an aborted flight's "
-        "goes out when the monitor stops it):", "\n".join(transfer)] if (transfer := transfer_rows(runs)) else []),
-        "Commands:\n\n" + cmds])
+        "\n".join(detail), "Commands:\n\n" + cmds])
     print(body)
     if write:
         write_result("realtime-campaign", body)

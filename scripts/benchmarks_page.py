@@ -99,7 +99,7 @@ MARKDOWN_OUTPUTS = {
     "drift": ("A vehicle that changes: drift, wind, the re-flights' cost", "drift/results.md", 1,
               "Reading: [docs/optimizer.md](docs/optimizer.md), its section on a vehicle that changes."),
     "realtime_campaign": ("Campaigns at real time, with realistic sensor noise, and their validation",
-                          "realtime-campaign/results.md", 1,
+                          "realtime-campaign/results.md", 2,
                           "Settings and reasons: "
                           "[benchmarks/notes/realtime-sensors.md](benchmarks/notes/realtime-sensors.md)."),
     "training_vs_flown": ("The training figure-8 against the flights pilots fly", "training-vs-flown/results.md", 1,

@@ -4,7 +4,8 @@ One trial = hover at the figure-8 start with the baseline gains, write the trial
 figure-8 with the monitor watching every sample, then restore the baseline (verified by a fresh read) before
 anything else happens. With a moving start (``[mission] start_speed_mps``, :mod:`ksbo_mav.mav.approach`) the hover
 is short of the start and the trial's gains fly a monitored approach that passes the start at the trial's random
-velocity as the figure-8 begins. Every trial leaves a two-way tlog and a JSON record next to it; its score is
+velocity as the figure-8 begins. With ``trial_step`` a monitored position step follows the figure-8
+(:mod:`ksbo_mav.mav.trial_step`). Every trial leaves a two-way tlog and a JSON record next to it; its score is
 computed from exactly what the tlog holds (:mod:`ksbo_mav.mav.trajectory`), so ``ksbo-mav score`` reproduces it.
 
 The three jobs of a trial live in three places: flying it (:class:`~ksbo_mav.mav.trial_flight.TrialFlight`),
