@@ -137,8 +137,11 @@ def section() -> str:
         "(target: at least 90 % in "
         f"every campaign, median at most 6 flights, 0 aborted). Machine: {machine}; the 2 cores were shared with "
         "other engineers' SITL campaigns and tests (load average 11–13 for the runs up to 08:54 UTC; the last "
-        "four, 10:31–11:19 UTC, at the same speed-ups on a quieter machine, load average 0.1–1.6), so the SITLs "
-        "flew slower than the fixed-12 "
+        "four, 10:31–11:19 UTC, at the same speed-ups on a quieter machine, load average 0.1–1.6; the JSBSim "
+        "copter's three flown again 13:57–13:59 UTC, after a fix of our simulator's lockstep: on a loaded machine "
+        "it stepped a setpoint the tuner re-sent twice, which put its clock ahead of the stream and made one "
+        "re-flight of seed 2's recommendation 0.489 m against 0.095 m; the same runs repeated under load gave the "
+        "same flights to the last digit), so the SITLs flew slower than the fixed-12 "
         f"runs ({speedups()}, against -s 10 / -s 5 on 2026-12-04; at -s 10 the tuner fell behind the vehicle on "
         "5 re-flights of the one run tried): compare the shares, each against L re-flown in its own session, not "
         "the cuts.",
