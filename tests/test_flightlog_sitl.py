@@ -109,6 +109,7 @@ def _truncated(capsys, tmp_path, src, name):
     return err
 
 
+@pytest.mark.slow  # ~17 s of SITL flight; the .BIN reader keeps its written-here logs in the default run
 def test_ardupilot_bin_and_client_tlog_agree(ardupilot_sitl, tmp_path, capsys):
     res, tlog = _fly(ardupilot_sitl, "ardupilot", tmp_path)
     binlog = _complete_log(ardupilot_sitl, ".BIN")

@@ -71,7 +71,8 @@ def _through(shape: str):
 
 
 @pytest.mark.network
-@pytest.mark.parametrize("shape", [RADIO, "down=1000,up=1000,queue=512,loss=0.25,burst=3,seed=2"])
+@pytest.mark.parametrize("shape", [RADIO, pytest.param("down=1000,up=1000,queue=512,loss=0.25,burst=3,seed=2",
+                                                          marks=pytest.mark.slow)])  # ~14 s
 def test_every_parameter_arrives_through_a_thin_lossy_link(shape: str) -> None:
     sim, emu, ep = _through(shape)
     said: list[str] = []

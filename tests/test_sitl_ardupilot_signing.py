@@ -88,6 +88,7 @@ def _signed_frames_from_us(tlog) -> tuple[int, int]:
     return sent, signed
 
 
+@pytest.mark.slow  # a whole signed campaign (~23 s); the refusals without or with a wrong key stay in the default run
 def test_with_the_key_a_campaign_flies_signed_and_the_key_is_nowhere(signed_sitl, tmp_path, monkeypatch):
     sitl, key_file = signed_sitl
     monkeypatch.setenv("KSBO_SIGNING_KEY_FILE", str(key_file))

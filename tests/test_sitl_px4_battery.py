@@ -11,7 +11,9 @@ import pytest
 
 from sitl_helpers import endpoint, tool
 
-pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
+# slow: a campaign until the default pack runs down (~33 s); the battery stop itself is in the default run on our
+# simulator (test_battery_campaign)
+pytestmark = [pytest.mark.sitl, pytest.mark.slow, pytest.mark.network, pytest.mark.timeout(600)]
 
 
 def test_the_default_px4_sitl_pack_stops_the_campaign_with_the_setting_that_makes_it_last(tmp_path):

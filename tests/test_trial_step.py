@@ -78,6 +78,7 @@ def test_the_simulated_prior_flies_the_step_too():
     assert float(why.split("tilt ")[1].split(" deg")[0]) > 37.0
 
 
+@pytest.mark.slow  # ~15 s; the step setting is off by default
 @pytest.mark.network
 @pytest.mark.timeout(300)
 def test_a_stiff_position_loop_trips_on_the_step_and_counts_as_aborted(tmp_path, capsys):

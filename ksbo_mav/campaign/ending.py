@@ -16,6 +16,7 @@ from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.campaign.summary import CampaignSummary
 from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.errors import VehicleError
+from ksbo_mav.mav.takeoff_landing import land
 from ksbo_mav.mav.pilot import tool_modes
 from ksbo_mav.mav.vehicle import Vehicle
 
@@ -84,7 +85,7 @@ def end_flight(v: Vehicle, end: str, error: bool, log: Callable[[str], None]) ->
     try:
         if end == "land" or (error and low):
             log("landing" + (" (stopped below the mission altitude)" if end != "land" else ""))
-            g.land()
+            land(g)
             log("landed and disarmed (confirmed by the heartbeat)")
             return "landed"
         here = g.position()

@@ -1,4 +1,5 @@
-"""Guided (ArduPilot) / offboard (PX4) control: arming, takeoff, holds, landing and position-target streaming.
+"""Guided (ArduPilot) / offboard (PX4) control: modes, holds and position-target streaming (arming, takeoff and
+landing: :mod:`ksbo_mav.mav.takeoff_landing`).
 
 Every wait runs on the vehicle's clock (:class:`~ksbo_mav.mav.clock.VehicleClock`); a lockstep simulator is
 stepped instead. Differences between stacks that matter here:
@@ -23,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_mav.errors import ClockStalled, LinkLost, PreflightError, VehicleError
-from ksbo_mav.mav.commands import CMD_ARM, CMD_TAKEOFF, Commander, refusal
+from ksbo_mav.errors import ClockStalled, LinkLost, PreflightError
+from ksbo_mav.mav.commands import Commander
 from ksbo_mav.mav.link import Link
 from ksbo_mav.mav.mission import FRAME_LOCAL_NED, MASK_POS, MASK_POS_VEL_ACC
 from ksbo_mav.mav.radio import RadioWatch
@@ -238,84 +239,6 @@ class Guided:
             self.cmd.set_mode("hold")
         self.hold_at(None)
 
-    def arm(self, timeout_s: float = 90.0, log: Callable[[str], None] = lambda s: None) -> None:
-        """Arm, retrying while the vehicle says "temporarily rejected" / "failed" (preflight checks still running,
-        no position estimate yet), within ``timeout_s`` of vehicle time; the vehicle's reason on one line."""
-        last = known = ""
-        start = self.tel.clock.last_ms if self.tel.clock.valid else None
-        while True:
-            result, reason = self.cmd.attempt(CMD_ARM, 1.0)
-            if result == 0:
-                if self.wait(3.0, lambda: self.armed):
-                    return
-                last = "accepted, but the heartbeat never showed the vehicle armed"
-            elif result in (1, 4):
-                # Autopilots rate-limit repeated pre-arm messages: a refusal without text keeps the last reason.
-                reason = reason or known
-                known = reason
-                if refusal("arming", result, reason) != last:
-                    log(f"{refusal('arming', result, reason)}; retrying for up to {timeout_s:g} s")
-                last = refusal("arming", result, reason)
-            else:
-                raise PreflightError(refusal("arming", result, reason))
-            now = self.tel.clock.last_ms if self.tel.clock.valid else None
-            if start is not None and now is not None and now - start > timeout_s * 1000:
-                raise PreflightError(f"vehicle did not arm within {timeout_s:g} s: {last}")
-            self.wait(1.0)
-
-    def ensure_airborne(self, alt: float, start: np.ndarray, tol: float, settle_s: float = 2.0,
-                        log: Callable[[str], None] = lambda s: None,
-                        check: Callable[[Any], None] = lambda hb: None) -> None:
-        """Armed in guided/offboard, hovering at ``start`` (NED; within ``tol`` m, then ``settle_s`` s of vehicle time
-        there), taking off if needed; an armed vehicle in a mode neither guided nor hold is refused: PreflightError
-        (never the gains' fault). ``check(hb)`` may refuse first and, on the newest heartbeat, before guided."""
-        hb = self.link.wait_heartbeat(self.heartbeat_timeout)
-        check(hb)
-        mine = (self.stack.modes["guided"], self.stack.modes["hold"])
-        if hb.base_mode & 128 and int(hb.custom_mode) not in mine:
-            raise PreflightError(f"vehicle is armed in mode {self.stack.mode_name(hb.custom_mode)}; switch it to "
-                                 f"{self.stack.mode_name(mine[0])} (or land it) before tuning")
-        if not hb.base_mode & 128:
-            self.takeoff(alt, log)
-        self.hold_at(start)
-        if not self.in_mode("guided"):
-            check(self.heartbeat)
-            self.enter("guided")
-        if not self.wait(60.0, lambda: self._near(start, tol)):
-            raise PreflightError(f"the vehicle did not come within {tol:g} m of the figure-8 start in 60 s "
-                                 f"(at {np.round(self.position(), 2)})")
-        self.wait(settle_s)
-
-    def takeoff(self, alt: float, log: Callable[[str], None]) -> None:
-        log(f"arming and taking off to {alt:g} m")
-        if not self.wait(120.0, lambda: self.tel.last_lpn is not None):
-            raise PreflightError("no position estimate (LOCAL_POSITION_NED) after 120 s: GPS / EKF not ready")
-        here = self.position()
-        assert here is not None
-        if self.stack.needs_stream:  # PX4: a position target above the vehicle, in OFFBOARD, then arm
-            self.hold_at(np.array([here[0], here[1], -alt]))
-            self.enter("guided")
-            self.arm(log=log)
-        else:
-            self.hold_at(None)
-            self.enter("guided")
-            self.arm(log=log)
-            result, reason = self.cmd.attempt(CMD_TAKEOFF, 0, 0, 0, float("nan"), float("nan"), float("nan"), alt)
-            if result != 0:
-                raise PreflightError(refusal("takeoff", result, reason))
-        if not self.wait(30.0 + 4.0 * alt, lambda: self.height() > 0.9 * alt):
-            raise PreflightError(f"takeoff did not reach {0.9 * alt:.1f} m (at {self.height():.2f} m)")
-
-    def _near(self, pos: np.ndarray, tol: float) -> bool:
+    def near(self, pos: np.ndarray, tol: float) -> bool:
         here = self.position()
         return here is not None and float(np.linalg.norm(here - pos)) < tol
-
-    def land(self, timeout_s: float = 120.0) -> None:
-        """LAND, then wait on the vehicle clock until the heartbeat shows it disarmed; VehicleError otherwise."""
-        if not self.armed:
-            return
-        self.hold_at(None)
-        self.cmd.set_mode("land")
-        if not self.wait(timeout_s, lambda: not self.armed):
-            raise VehicleError(f"the vehicle did not land and disarm within {timeout_s:g} s of vehicle time "
-                               f"(height {self.height():.2f} m)")

@@ -30,6 +30,7 @@ from ksbo_mav.mav.pilot import taken_over
 from ksbo_mav.mav.power import PowerWatch
 from ksbo_mav.mav.signing import needs_key
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
+from ksbo_mav.mav.takeoff_landing import ensure_airborne, land
 from ksbo_mav.mav.telemetry import Telemetry
 from ksbo_mav.mav.wire import mavlink
 from ksbo_mav.profiles import Profile, load_profile
@@ -142,8 +143,8 @@ class Vehicle:
         disarmed vehicle is the pilot's (or a ground station's) doing: :class:`PilotTookOver`, nothing commanded."""
         m = self.mission
         # Start tolerance: 5 % of the figure-8's size (0.5 m for the 20 m copter pattern, 4 cm for the planar one).
-        self.guided.ensure_airborne(float(m.center_up), m.start_ned() if at is None else np.asarray(at, float),
-                                    tol=max(0.03, 0.05 * m.scale), log=log, check=self._still_ours)
+        ensure_airborne(self.guided, float(m.center_up), m.start_ned() if at is None else np.asarray(at, float),
+                        tol=max(0.03, 0.05 * m.scale), log=log, check=self._still_ours)
         self.had_control = True
 
     def _still_ours(self, hb: Any) -> None:
@@ -154,7 +155,7 @@ class Vehicle:
             raise PilotTookOver(why)
 
     def land(self, timeout_s: float = 120.0) -> None:
-        self.guided.land(timeout_s)
+        land(self.guided, timeout_s)
         self.had_control = False  # landed by us: the next takeoff is ours too
 
     def statustext(self, text: str, severity: int = 6) -> None:
