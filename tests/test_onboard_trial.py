@@ -16,15 +16,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from onboard_helpers import fly_pair_of_trials, sent_setpoints, short_mission
+from onboard_helpers import fly_pair_of_trials, guarded_and_airborne, sent_setpoints, short_mission
 
 from ksbo_mav.flightlog.tlogs import read_any_tlog
-from ksbo_mav.mav.guard_script import GUARD_PARAMS, config_for, figure8_for, new_config_id, render_script
+from ksbo_mav.mav.guard_script import GUARD_PARAMS, config_for, figure8_for, render_script
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.monitor import limits_from_profile
 from ksbo_mav.mav.objective import MavlinkObjective
-from ksbo_mav.mav.onboard_guard import OnboardGuard
 from ksbo_mav.mav.onboard_trial import full_t0
 from ksbo_mav.mav.outcome import TrialOutcome
 from ksbo_mav.mav.tlog import read_tlog
@@ -65,15 +64,7 @@ def copter():
     with SimProcess("--lockstep", "--vehicle", "copter3d", "--personality", "ardupilot-legacy") as sim:
         v = Vehicle.connect(Endpoint("udpout", sim.host, sim.port), PROFILE)
         try:
-            v.mission = short_mission(v.mission)
-            base = {n: v.params.read(n) for n in v.gain_map.param_names}
-            limits = limits_from_profile(v.profile)
-            guard = OnboardGuard(v.link, v.params, v.cmd)
-            guard.install(config_for(limits, v.heartbeat_timeout, base, new_config_id(),
-                                     figure8=figure8_for(v.mission, 1.5 * limits.tracking_error_max)))
-            v.guard = guard
-            v.setup_streams()
-            v.ensure_airborne()
+            base, guard = guarded_and_airborne(v)
             yield v, base
             v.guard = None
             guard.remove()

@@ -7,13 +7,11 @@ from __future__ import annotations
 
 import pytest
 from conftest import sitl_or_skip
-from onboard_helpers import fly_pair_of_trials, sent_setpoints, short_mission
+from onboard_helpers import fly_pair_of_trials, guarded_and_airborne, sent_setpoints
 from ksbo_sim.sitl_instances import release_stopped
 
-from ksbo_mav.mav.guard_script import GUARD_PARAMS, config_for, figure8_for, new_config_id
+from ksbo_mav.mav.guard_script import GUARD_PARAMS
 from ksbo_mav.mav.link import Endpoint
-from ksbo_mav.mav.monitor import limits_from_profile
-from ksbo_mav.mav.onboard_guard import OnboardGuard
 from ksbo_mav.mav.outcome import TrialOutcome
 from ksbo_mav.mav.tlog import read_tlog
 from ksbo_mav.mav.trajectory import trajectory_from_tlog
@@ -27,15 +25,7 @@ def test_onboard_figure8_on_arducopter_sitl(tmp_path):
     try:
         v = Vehicle.connect(Endpoint("tcp", "127.0.0.1", sitl.tcp_port), "ardupilot-copter")
         try:
-            v.mission = short_mission(v.mission)
-            base = {n: v.params.read(n) for n in v.gain_map.param_names}
-            limits = limits_from_profile(v.profile)
-            guard = OnboardGuard(v.link, v.params, v.cmd)
-            guard.install(config_for(limits, v.heartbeat_timeout, base, new_config_id(),
-                                     figure8=figure8_for(v.mission, 1.5 * limits.tracking_error_max)))
-            v.guard = guard
-            v.setup_streams()
-            v.ensure_airborne()
+            base, guard = guarded_and_airborne(v)
             board, ground = fly_pair_of_trials(v, base, tmp_path)
             for f in (board, ground):
                 assert f.outcome is TrialOutcome.OK, f.meta["message"]

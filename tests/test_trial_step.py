@@ -155,25 +155,16 @@ def test_a_campaign_flies_the_step_in_every_trial_and_counts_its_aborts_apart(tm
 def test_the_step_follows_a_figure8_flown_on_board(tmp_path):
     """ArduPilot's guard flies the figure-8 and holds its end point; the tuner then flies the step from the ground
     (the JSBSim copter with ArduPilot's names and the simulated guard, a short figure-8)."""
-    from onboard_helpers import short_mission
+    from onboard_helpers import guarded_and_airborne
 
-    from ksbo_mav.mav.guard_script import config_for, figure8_for, new_config_id
     from ksbo_mav.mav.link import Endpoint
-    from ksbo_mav.mav.onboard_guard import OnboardGuard
     from ksbo_sim.process import SimProcess
 
     with SimProcess("--lockstep", "--vehicle", "copter3d", "--personality", "ardupilot-legacy") as sim:
         v = Vehicle.connect(Endpoint("udpout", sim.host, sim.port), "ardupilot-copter")
         try:
-            v.mission = short_mission(v.mission)
-            base = {n: v.params.read(n) for n in v.gain_map.param_names}
+            base, guard = guarded_and_airborne(v)
             limits = limits_from_profile(v.profile)
-            guard = OnboardGuard(v.link, v.params, v.cmd)
-            guard.install(config_for(limits, v.heartbeat_timeout, base, new_config_id(),
-                                     figure8=figure8_for(v.mission, 1.5 * limits.tracking_error_max)))
-            v.guard = guard
-            v.setup_streams()
-            v.ensure_airborne()
             f = MavlinkObjective(v, base, tmp_path, trial_step=True).fly(v.gain_map.from_params(base))
             v.guard = None
             guard.remove()
