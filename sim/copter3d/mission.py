@@ -13,6 +13,7 @@ import numpy as np
 
 from ksbo_sim.vehicle import Setpoint, VehicleModel
 from ksbo_task.figure8_ne import Figure8H
+from ksbo_task.limit_checks import tilt_rad
 
 #: SET_POSITION_TARGET_LOCAL_NED type_mask for position + velocity + acceleration (yaw and yaw rate ignored).
 TYPE_MASK_POS_VEL_ACC = 0x0C00
@@ -40,7 +41,7 @@ class Flight:
     rms_all: float
     rms_lap2_axes: tuple[float, float, float]
     max_error: float  # m, largest |measured - commanded| over the whole flight (lap 1 start transient)
-    max_tilt_deg: float  # largest roll or pitch magnitude
+    max_tilt_deg: float  # largest tilt of the body's z axis from the vertical, as the tuner's monitor judges it
 
 
 def fly(vehicle: VehicleModel, fig: Figure8H | None = None) -> Flight:
@@ -63,7 +64,7 @@ def fly(vehicle: VehicleModel, fig: Figure8H | None = None) -> Flight:
         pos_ref, vel_ref, acc_ref = fig.state(float(tk))
         st = vehicle.step(Setpoint(pos=pos_ref, vel=vel_ref, acc=acc_ref))
         pos[k] = st.pos
-        tilt[k] = max(abs(st.rpy[0]), abs(st.rpy[1]))
+        tilt[k] = tilt_rad(float(st.rpy[0]), float(st.rpy[1]))
         n = k + 1
         if st.crashed:
             crashed = st.crashed
