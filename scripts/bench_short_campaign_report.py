@@ -8,6 +8,8 @@ import statistics
 from collections import defaultdict
 from pathlib import Path
 
+#: Labels the results page shows in a section of their own (scripts/_bench_early_stop.py: each seed's newest run).
+OWN_SECTION = ("early-stop",)
 VEHICLE = {"ardupilot": "ArduCopter SITL", "px4": "PX4 SITL", "copter3d": "JSBSim copter"}
 
 
@@ -31,6 +33,8 @@ def report(runs_path: Path) -> None:
     for r in runs:
         if r.get("label", "").startswith(("try-", "was-")):
             continue  # a design tried on the way, or an earlier default (benchmarks/notes), not on the results page
+        if r.get("label") in OWN_SECTION:
+            continue
         groups[(VEHICLE[r["stack"]], condition(r), r["label"], " ".join(r["tune_args"]))].append(r)
     rows, figures = [], []
     def order(kv: tuple) -> tuple:
@@ -57,7 +61,7 @@ def report(runs_path: Path) -> None:
             b, rec = r["reflown"]["baseline"], r["reflown"]["rec"]
             figures.append(f"| {veh} | {cond} | {label} | {r['seed']} | {r['flights']} | {_spread(b)} | "
                            f"{_spread(rec)} | {r['cut']:.1%} |")
-    machine = runs[-1]["machine"]
+    machine = runs[-1]["machine"] + " (the newest run; each run's own in runs.jsonl)"
     text = "\n".join([
         "# Flights to 90 %: a campaign that fits in one battery",
         "",
