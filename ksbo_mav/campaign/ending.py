@@ -16,8 +16,8 @@ from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.campaign.summary import CampaignSummary
 from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.errors import VehicleError
-from ksbo_mav.mav.takeoff_landing import land
 from ksbo_mav.mav.pilot import tool_modes
+from ksbo_mav.mav.takeoff_landing import land
 from ksbo_mav.mav.vehicle import Vehicle
 
 
