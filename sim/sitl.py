@@ -4,6 +4,10 @@ Finds the ``run`` scripts (``$KSBO_ARDUPILOT_SITL`` / ``$KSBO_PX4_SITL`` — a `
 one — else ``shared/sitl/{ardupilot,px4}/run`` beside or above the checkout), starts one instance on its own
 instance number (so ports never collide), waits for its first HEARTBEAT on loopback, and stops it by PID.
 
+PX4 comes in two builds with the same ``run`` interface and ports: ``1.15`` (v1.15.4, ``shared/sitl/px4``) and
+``main`` (v1.19.0-dev, ``shared/sitl/px4-main``, or ``$KSBO_PX4_MAIN_SITL``). ``$KSBO_PX4_BUILD`` (``1.15`` or
+``main``) chooses the one a start without an explicit ``build`` gets, so a whole test run can fly PX4 main.
+
 Endpoints as the tuner sees them (``ksbo-mav tune --tcp/--udp ...``):
 
 * ArduCopter instance N: TCP server ``127.0.0.1:5760+10N`` (SERIAL0; its clock starts when a client connects),
@@ -28,31 +32,45 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 ENV = {"ardupilot": "KSBO_ARDUPILOT_SITL", "px4": "KSBO_PX4_SITL"}
+#: PX4 builds: name -> (folder under shared/sitl, environment variable naming its run script).
+PX4_BUILDS = {"1.15": ("px4", "KSBO_PX4_SITL"), "main": ("px4-main", "KSBO_PX4_MAIN_SITL")}
+#: Chooses the PX4 build of a start that names none ("1.15" when unset).
+PX4_BUILD_ENV = "KSBO_PX4_BUILD"
+
+
+def px4_build(build: str | None = None) -> str:
+    """The PX4 build to start: ``build`` if given, else ``$KSBO_PX4_BUILD``, else "1.15"; ValueError if unknown."""
+    name = build or os.environ.get(PX4_BUILD_ENV, "") or "1.15"
+    if name not in PX4_BUILDS:
+        raise ValueError(f"unknown PX4 SITL build {name!r} (from {'the caller' if build else PX4_BUILD_ENV}); "
+                         f"known: {', '.join(PX4_BUILDS)}")
+    return name
 
 
 class SitlNotFound(RuntimeError):
     """No SITL of that kind on this machine (the message says where we looked)."""
 
 
-def find_run_script(kind: str) -> Path:
-    """Path of the ``run`` script for ``kind`` ("ardupilot" or "px4"); :class:`SitlNotFound` with the places
-    searched otherwise."""
+def find_run_script(kind: str, build: str | None = None) -> Path:
+    """Path of the ``run`` script for ``kind`` ("ardupilot" or "px4"; PX4's ``build``, see :func:`px4_build`);
+    :class:`SitlNotFound` with the places searched otherwise."""
     if kind not in ENV:
         raise ValueError(f"unknown SITL kind {kind!r}; known: {', '.join(ENV)}")
+    folder, var = PX4_BUILDS[px4_build(build)] if kind == "px4" else (kind, ENV[kind])
     tried: list[str] = []
-    env = os.environ.get(ENV[kind])
+    env = os.environ.get(var)
     candidates: list[Path] = []
     if env:
         p = Path(env)
         candidates.append(p / "run" if p.is_dir() else p)
     here = Path(__file__).resolve()
     for parent in list(here.parents)[:5] + list(Path.cwd().resolve().parents)[:3] + [Path.cwd().resolve()]:
-        candidates.append(parent / "shared" / "sitl" / kind / "run")
+        candidates.append(parent / "shared" / "sitl" / folder / "run")
     for c in candidates:
         tried.append(str(c))
         if c.is_file() and os.access(c, os.X_OK):
             return c
-    raise SitlNotFound(f"no {kind} SITL found (set {ENV[kind]} to its run script; looked at "
+    raise SitlNotFound(f"no {folder} SITL found (set {var} to its run script; looked at "
                        + ", ".join(dict.fromkeys(tried)) + ")")
 
 
@@ -67,6 +85,8 @@ class Sitl:
     proc: subprocess.Popen
     log_path: Path
     _own_workdir: bool = field(default=False, repr=False)
+    #: PX4's build ("1.15", "main"); "" for ArduCopter.
+    build: str = ""
 
     # --- endpoints -------------------------------------------------------------------------------------------
     @property
@@ -198,12 +218,14 @@ LASTING_PACK = {"px4": {"SIM_BAT_DRAIN": 1800.0},
 
 
 def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str | Path | None = None,
-               keep_params: bool = False, heartbeat_timeout: float = 60.0, scripting: bool = True) -> Sitl:
+               keep_params: bool = False, heartbeat_timeout: float = 60.0, scripting: bool = True,
+               build: str | None = None) -> Sitl:
     """Start a SITL and wait until it sends a HEARTBEAT on loopback.
 
     ``scripting`` (ArduCopter, default on): boot with Lua scripting on (``SCR_ENABLE`` 1 from a second defaults
     file after ``copter.parm``; the setting takes effect only at boot), as a vehicle prepared for the tuner's
-    onboard guard, which ``ksbo-mav tune`` requires unless ``--no-onboard-guard``.
+    onboard guard, which ``ksbo-mav tune`` requires unless ``--no-onboard-guard``. ``build`` (PX4): "1.15" or
+    "main" (:func:`px4_build`: unset, ``$KSBO_PX4_BUILD`` decides).
 
     ArduCopter's clock only starts once a client connects to SERIAL0; the heartbeat probe connects and
     disconnects (ArduPilot accepts the next client on the same port). :class:`SitlNotFound` if no SITL is
@@ -213,7 +235,8 @@ def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str 
     if kind == "px4" and not 0 <= instance <= 9:
         # PX4's startup script sends every instance from 10 up to one API port (14549), not 14540+N.
         raise ValueError(f"PX4 SITL instance {instance}: use 0..9 (instances from 10 up share one API port)")
-    script = find_run_script(kind)
+    build = px4_build(build) if kind == "px4" else ""
+    script = find_run_script(kind, build)
     own = workdir is None
     wd = Path(tempfile.mkdtemp(prefix=f"ksbo-{kind}-sitl-")) if own else Path(workdir)
     wd.mkdir(parents=True, exist_ok=True)
@@ -230,7 +253,7 @@ def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str 
         # Own process group: a test runner's Ctrl-C is for the runner, the fixture stops the SITL by PID.
         proc = subprocess.Popen(args, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                 start_new_session=True)
-    sitl = Sitl(kind, instance, speedup, wd, proc, log_path, own)
+    sitl = Sitl(kind, instance, speedup, wd, proc, log_path, own, build)
     try:
         _wait_heartbeat(sitl, heartbeat_timeout)
         for name, value in ({} if keep_params else LASTING_PACK[kind]).items():

@@ -89,7 +89,7 @@ def claim(kind: str) -> tuple[int, int]:
 def start_claimed(kind: str, speedup: float, **kw) -> Sitl:
     """A SITL of ``kind`` on a claimed instance number (the claim ends once it has stopped). SitlNotFound if
     there is none on this machine."""
-    find_run_script(kind)
+    find_run_script(kind, kw.get("build"))
     n, fd = claim(kind)
     try:
         sitl = start_sitl(kind, instance=n, speedup=speedup, **kw)

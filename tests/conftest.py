@@ -35,8 +35,18 @@ def ardupilot_sitl():
 
 @pytest.fixture(scope="module")
 def px4_sitl():
-    """PX4 SITL (SIH quad) at 5x, fresh parameters, one per test module (stopped by PID at the end)."""
+    """PX4 SITL (SIH quad) at 5x, fresh parameters, one per test module (stopped by PID at the end). The build is
+    $KSBO_PX4_BUILD's ("1.15" unset, or "main": `KSBO_PX4_BUILD=main pytest -m sitl` flies every PX4 test on main)."""
     sitl = sitl_or_skip("px4", 5)
+    yield sitl
+    sitl.stop()
+    release_stopped()
+
+
+@pytest.fixture(scope="module")
+def px4_main_sitl():
+    """PX4 main (v1.19.0-dev) SITL at 5x whatever $KSBO_PX4_BUILD says: the tests of what differs from 1.15."""
+    sitl = sitl_or_skip("px4", 5, build="main")
     yield sitl
     sitl.stop()
     release_stopped()

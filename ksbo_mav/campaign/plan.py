@@ -34,6 +34,7 @@ def campaign_plan(v: Vehicle, cfg: CampaignConfig, d: CampaignDir, base: dict[st
     return "\n".join([
         f"vehicle: sysid {v.identity.sysid}, {v.stack.name} {v.identity.firmware}"
         + (f", {v.gain_map.generation} parameter names" if v.gain_map.generation else ""),
+        *(line for line in (v.firmware_check.line, v.firmware_check.warning) if line),
         f"profile: {v.profile.name}; method {cfg.method}, {cfg.budget} trials "
         f"(+ prior '{kind}'{prior_note(kind, prior_size(cfg, kind))}), seed {cfg.seed}" + options_note(cfg, v.profile),
         "gains (profile name, vehicle name, current value, optimiser range):", *rows,

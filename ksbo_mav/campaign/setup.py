@@ -62,4 +62,5 @@ def create_campaign(d: CampaignDir, cfg: CampaignConfig, v: Vehicle, base: dict[
     d.write_settings({"config": cfg.to_dict(), "profile": v.profile.name, "baseline": base,
                       "x0": x0.tolist(), "bounds": opt_bounds(v.profile, x0).tolist(),
                       "mission": v.mission.to_dict(),
-                      "identity": v.identity.to_dict(), "created_unix": time.time()})
+                      "identity": v.identity.to_dict(), "created_unix": time.time(),
+                      "firmware": [line for line in (v.firmware_check.line, v.firmware_check.warning) if line]})

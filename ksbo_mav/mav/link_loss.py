@@ -24,7 +24,9 @@ import socket
 from dataclasses import dataclass
 from typing import Any
 
-#: COM_OBL_RC_ACT (v1.15): the mode after offboard loss.
+from ksbo_mav.mav.px4_generation import offboard_loss_mode_2, stick_override_words
+
+#: COM_OBL_RC_ACT (v1.15; PX4 main calls 2 "Stabilized"): the mode after offboard loss.
 OFFBOARD_LOSS_ACTION = {0: "Position mode", 1: "Altitude mode", 2: "Manual mode", 3: "Return mode",
                         4: "Land mode", 5: "Hold mode", 6: "flight termination (motors off)", 7: "disarm"}
 #: The offboard-loss modes PX4 flies only with an RC transmitter (the pilot's sticks).
@@ -43,6 +45,10 @@ class LinkLossPlan:
     offboard_action: int
     data_link_action: int
     data_link_loss_s: float
+    #: How the pilot's sticks end OFFBOARD on this PX4 generation (:mod:`ksbo_mav.mav.px4_generation`).
+    stick_override: str = ""
+    #: COM_OBL_RC_ACT 2's name on this generation ("Manual mode" up to 1.17, "Stabilized mode" after).
+    mode_2: str = OFFBOARD_LOSS_ACTION[2]
 
     @classmethod
     def from_params(cls, table: dict[str, Any]) -> "LinkLossPlan | None":
@@ -50,11 +56,14 @@ class LinkLossPlan:
         if any(n not in table for n in PARAMS):
             return None
         value = {n: float(table[n].value) for n in PARAMS}
+        sticks = {n: float(table[n].value) for n in ("MAN_OVERRIDE_SPD", "COM_RC_OVERRIDE", "COM_RC_STICK_OV")
+                  if n in table}
         return cls(value["COM_OF_LOSS_T"], int(value["COM_OBL_RC_ACT"]), int(value["NAV_DLL_ACT"]),
-                   value["COM_DL_LOSS_T"])
+                   value["COM_DL_LOSS_T"], stick_override_words(sticks), offboard_loss_mode_2(table))
 
     def offboard_words(self) -> str:
-        mode = OFFBOARD_LOSS_ACTION.get(self.offboard_action, f"action {self.offboard_action} (unknown)")
+        names = {**OFFBOARD_LOSS_ACTION, 2: self.mode_2}
+        mode = names.get(self.offboard_action, f"action {self.offboard_action} (unknown)")
         said = f"{mode} (COM_OBL_RC_ACT {self.offboard_action})"
         return said + (" with an RC transmitter connected, else Return mode (PX4's fallback without one)"
                        if self.offboard_action in NEEDS_RC else "")
@@ -71,7 +80,7 @@ class LinkLossPlan:
         return (f"If the link dies mid-trial, PX4 leaves OFFBOARD {self.offboard_loss_s:g} s after the last setpoint "
                 f"(COM_OF_LOSS_T) for {self.offboard_words()}; {self.data_link_words()}. The trial's gains stay on "
                 "the vehicle until the link returns and the tool restores the baseline: PX4 has nothing on board "
-                "to restore them.")
+                "to restore them." + (f" A pilot's sticks: {self.stick_override}." if self.stick_override else ""))
 
 
 @dataclass(frozen=True)

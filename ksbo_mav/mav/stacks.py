@@ -128,7 +128,9 @@ def default_profile(ident: Identity, stack: Stack) -> str:
 
 
 #: ArduPilot generation renames: new name -> (legacy name, scale) with ``new value = legacy value * scale``
-#: (fact sheet 3.1). Names not listed are the same in both generations (ATC_*, PSC_ANGLE_MAX, ...).
+#: (fact sheet 3.1; each checked against ArduPilot's AC_PosControl.cpp, docs/firmware.md). Names not listed are the
+#: same in both generations (ATC_*, PSC_ANGLE_MAX, ...). PSC_JERK_NE/D are 4.7's names; master renamed them
+#: PSC_NE_JERK/PSC_D_JERK later (July 2026): the tuner neither reads nor writes them.
 ARDUPILOT_LEGACY = {
     "PSC_NE_POS_P": ("PSC_POSXY_P", 1.0),
     "PSC_NE_VEL_P": ("PSC_VELXY_P", 1.0),
@@ -140,6 +142,7 @@ ARDUPILOT_LEGACY = {
     "PSC_NE_VEL_FLTD": ("PSC_VELXY_FLTD", 1.0),
     "PSC_D_POS_P": ("PSC_POSZ_P", 1.0),
     "PSC_D_VEL_P": ("PSC_VELZ_P", 1.0),
+    "PSC_D_VEL_IMAX": ("PSC_VELZ_IMAX", 0.01),
     "PSC_D_ACC_P": ("PSC_ACCZ_P", 0.1),
     "PSC_D_ACC_I": ("PSC_ACCZ_I", 0.1),
     "PSC_D_ACC_D": ("PSC_ACCZ_D", 0.1),

@@ -21,6 +21,7 @@ import numpy as np
 
 from ksbo_mav.errors import InputError, PilotTookOver, VehicleError
 from ksbo_mav.mav.commands import Commander
+from ksbo_mav.mav.firmware import check_firmware
 from ksbo_mav.mav.gains import GainService
 from ksbo_mav.mav.guided import Guided
 from ksbo_mav.mav.link import Endpoint, Link
@@ -28,6 +29,7 @@ from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.params import CAPABILITY_FTP, ParamClient
 from ksbo_mav.mav.pilot import taken_over
 from ksbo_mav.mav.power import PowerWatch
+from ksbo_mav.mav.px4_generation import px4_generation
 from ksbo_mav.mav.signing import needs_key
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
 from ksbo_mav.mav.takeoff_landing import ensure_airborne, land
@@ -55,6 +57,10 @@ class Vehicle:
         #: The onboard guard (:class:`~ksbo_mav.mav.onboard_guard.OnboardGuard`) armed around every trial, if the
         #: campaign installed one.
         self.guard: Any = None
+        #: The firmware and how far it has been verified here (docs/firmware.md): said at connect, in the plan and
+        #: in the report.
+        self.firmware_check = check_firmware(stack.name, identity.flight_sw_version, gain_map.generation,
+                                             px4_generation(params.table) if stack.name == "px4" else "")
 
     # --- preflight -----------------------------------------------------------------------------------------
     @classmethod
@@ -99,7 +105,11 @@ class Vehicle:
             if want and want != stack.name:
                 raise InputError(f"profile {prof.name} is for autopilot {want!r}, the vehicle runs {stack.name}")
             gain_map = GainMap.build(prof.names, stack, table, prof)
-            return cls(link, stack, ident, params, cmd, prof, gain_map)
+            vehicle = cls(link, stack, ident, params, cmd, prof, gain_map)
+            log(vehicle.firmware_check.line)
+            if vehicle.firmware_check.warning:
+                log(vehicle.firmware_check.warning)
+            return vehicle
         except BaseException:
             link.close()
             raise

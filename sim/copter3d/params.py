@@ -2,9 +2,11 @@
 
 Three name generations share one internal gain vector (:class:`PosGains` + :class:`AttitudeGains`):
 
-* ``ardupilot``: ArduPilot master after PR #31513 (``PSC_NE_*``, ``PSC_D_*``; SI units);
-* ``ardupilot-legacy``: ArduPilot <= 4.7.0-dev (``PSC_POSXY_*``, ``PSC_VELZ_*``, ``PSC_ACCZ_*``): IMAX in cm/s^2
-  (x 0.01), ACCZ P/I/D x 0.1 and ACCZ IMAX in d% (x 0.001) relative to the new names (fact sheet 3.1);
+* ``ardupilot``: ArduCopter 4.7, the names after PR #31513 (``PSC_NE_*``, ``PSC_D_*``; SI units), with the
+  defaults and ranges of its AC_PosControl.cpp (docs/firmware.md says where they were read);
+* ``ardupilot-legacy``: ArduCopter 4.5/4.6 and 4.7.0-dev of 2025 (``PSC_POSXY_*``, ``PSC_VELZ_*``,
+  ``PSC_ACCZ_*``): IMAX in cm/s^2 (x 0.01), ACCZ P/I/D x 0.1 and ACCZ IMAX in d% (x 0.001) relative to the new
+  names (fact sheet 3.1);
 * ``px4``: ``MPC_*`` position loops (two-stage Z: the vehicle switches to the PX4 Z structure) and ``MC_*``
   attitude/rate loops with the rate law K (P e + I int e + D de/dt).
 
@@ -53,6 +55,7 @@ def _ardupilot_psc(legacy: bool) -> list[ParamMap]:
             _p("PSC_VELXY_FLTD", 5.0, 0.0, 100.0, "pos", "ne_vel_fltd", desc="[Hz]"),
             _p("PSC_POSZ_P", 1.0, 1.0, 3.0, "pos", "d_pos_p", desc="D position P"),
             _p("PSC_VELZ_P", 5.0, 1.0, 8.0, "pos", "d_vel_p", desc="D velocity P"),
+            _p("PSC_VELZ_IMAX", 1000.0, 1.0, 1000.0, desc="[cm/s^2] (stored)"),
             _p("PSC_ACCZ_P", 0.5, 0.2, 1.5, "pos", "d_acc_p", scale=0.1, desc="D accel P [thr per 10 m/s^2]"),
             _p("PSC_ACCZ_I", 1.0, 0.0, 3.0, "pos", "d_acc_i", scale=0.1),
             _p("PSC_ACCZ_D", 0.0, 0.0, 0.4, "pos", "d_acc_d", scale=0.1),
@@ -62,25 +65,29 @@ def _ardupilot_psc(legacy: bool) -> list[ParamMap]:
             _p("PSC_JERK_XY", 5.0, 1.0, 20.0, desc="[m/s^3] (stored; targets are not re-shaped)"),
             _p("PSC_JERK_Z", 5.0, 5.0, 50.0, desc="[m/s^3] (stored)"),
         ]
+    # ArduCopter 4.7 (the AC_PosControl.cpp parameter table after PR #31513; docs/firmware.md): ranges as its @Range
+    # lines, defaults as its Copter defaults. Where a documented range excludes the default (FF 0.1-10 and FLTD
+    # 1-100 with defaults 0), the range starts at the default so the default itself is settable here.
     return [
         _p("PSC_NE_POS_P", 1.0, 0.5, 4.0, "pos", "ne_pos_p", desc="NE position P [(m/s)/m]"),
-        _p("PSC_NE_VEL_P", 2.0, 0.1, 6.0, "pos", "ne_vel_p", desc="NE velocity P [(m/s^2)/(m/s)]"),
-        _p("PSC_NE_VEL_I", 1.0, 0.02, 1.0, "pos", "ne_vel_i", desc="NE velocity I"),
+        _p("PSC_NE_VEL_P", 2.0, 0.1, 10.0, "pos", "ne_vel_p", desc="NE velocity P [(m/s^2)/(m/s)]"),
+        _p("PSC_NE_VEL_I", 1.0, 0.1, 10.0, "pos", "ne_vel_i", desc="NE velocity I"),
         _p("PSC_NE_VEL_D", 0.25, 0.0, 1.0, "pos", "ne_vel_d", desc="NE velocity D"),
-        _p("PSC_NE_VEL_IMAX", 10.0, 0.0, 45.0, "pos", "ne_vel_imax", desc="[m/s^2]"),
-        _p("PSC_NE_VEL_FF", 0.0, 0.0, 6.0, "pos", "ne_vel_ff"),
+        _p("PSC_NE_VEL_IMAX", 10.0, 0.0, 10.0, "pos", "ne_vel_imax", desc="[m/s^2] (4.6: PSC_VELXY_IMAX x 0.01)"),
+        _p("PSC_NE_VEL_FF", 0.0, 0.0, 10.0, "pos", "ne_vel_ff"),
         _p("PSC_NE_VEL_FLTE", 5.0, 0.0, 100.0, "pos", "ne_vel_flte", desc="[Hz]"),
         _p("PSC_NE_VEL_FLTD", 5.0, 0.0, 100.0, "pos", "ne_vel_fltd", desc="[Hz]"),
         _p("PSC_D_POS_P", 1.0, 0.5, 4.0, "pos", "d_pos_p", desc="D position P"),
         _p("PSC_D_VEL_P", 5.0, 1.0, 10.0, "pos", "d_vel_p", desc="D velocity P"),
-        _p("PSC_D_ACC_P", 0.05, 0.01, 0.25, "pos", "d_acc_p", desc="D accel P [thr per m/s^2]"),
-        _p("PSC_D_ACC_I", 0.1, 0.0, 0.5, "pos", "d_acc_i"),
-        _p("PSC_D_ACC_D", 0.0, 0.0, 0.1, "pos", "d_acc_d"),
-        _p("PSC_D_ACC_IMAX", 0.8, 0.0, 1.0, "pos", "d_acc_imax"),
+        _p("PSC_D_VEL_IMAX", 10.0, 1.0, 10.0, desc="[m/s^2] (stored; 4.6: PSC_VELZ_IMAX x 0.01)"),
+        _p("PSC_D_ACC_P", 0.05, 0.01, 0.25, "pos", "d_acc_p", desc="D accel P (4.6: PSC_ACCZ_P x 0.1)"),
+        _p("PSC_D_ACC_I", 0.1, 0.0, 0.5, "pos", "d_acc_i", desc="(4.6: PSC_ACCZ_I x 0.1)"),
+        _p("PSC_D_ACC_D", 0.0, 0.0, 0.1, "pos", "d_acc_d", desc="(4.6: PSC_ACCZ_D x 0.1)"),
+        _p("PSC_D_ACC_IMAX", 0.8, 0.0, 1.0, "pos", "d_acc_imax", desc="(4.6: PSC_ACCZ_IMAX x 0.001)"),
         _p("PSC_D_ACC_FLTE", 20.0, 1.0, 100.0, "pos", "d_acc_flte", desc="[Hz]"),
         _p("PSC_D_ACC_FLTD", 0.0, 0.0, 100.0, desc="[Hz] (stored; the accel D gain is 0)"),
-        _p("PSC_JERK_NE", 5.0, 1.0, 20.0, desc="[m/s^3] (stored; targets are not re-shaped)"),
-        _p("PSC_JERK_D", 5.0, 5.0, 50.0, desc="[m/s^3] (stored)"),
+        _p("PSC_JERK_NE", 5.0, 1.0, 50.0, desc="[m/s^3] (stored; targets are not re-shaped)"),
+        _p("PSC_JERK_D", 5.0, 1.0, 50.0, desc="[m/s^3] (stored)"),
     ]
 
 

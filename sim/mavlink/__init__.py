@@ -39,7 +39,7 @@ FENCE_Z_MAX, FENCE_TILT_DEG) then the endpoint's (``server.endpoint_specs``): SI
 SIM_DELAY_MS, SIM_MUTE_S, SIM_PILOT_MODE, SIM_PSET_FAIL, SIM_FAULT_AFTER (fault switches, volatile), SIM_SP_TIMEOUT,
 SIM_POS_NOISE, SIM_VEL_NOISE, SIM_ACC_NOISE, TKOFF_SPEED, LAND_SPEED, WP_SPEED, WP_ACCEL, WP_RADIUS (AUTO),
 SIM_LOCKSTEP (read-only), then the simulated
-guard's (``guard.PARAMS``): SCR_ENABLE, MAV_GCS_SYSID, KSG_STATE, KSG_TRIP.
+guard's (``guard.params``): SCR_ENABLE, MAV_GCS_SYSID (or SYSID_MYGCS), KSG_STATE, KSG_TRIP.
 
 Modules, one per MAVLink service: ``link`` (sockets, fault injection), ``params`` (parameter protocol,
 persistence), ``commands`` (COMMAND_LONG/ACK, modes), ``ftp`` (MAVLink FTP: scripts written, listed and removed;

@@ -1,7 +1,8 @@
 """The onboard guard, simulated: what ``ksbo_guard.lua`` does on ArduPilot, done by the simulator itself, so the
 demo and the fast tests run the tuner's guard protocol against a vehicle without Lua.
 
-The vehicle looks like ArduPilot with scripting on: parameters ``SCR_ENABLE`` (1), ``MAV_GCS_SYSID`` (255) and the
+The vehicle looks like ArduPilot with scripting on: parameters ``SCR_ENABLE`` (1), ``MAV_GCS_SYSID`` (255; the
+personality's name for it: ``SYSID_MYGCS`` on the pre-4.7 ArduPilot generation) and the
 script's ``KSG_STATE``/``KSG_TRIP`` (always listed here; ArduPilot adds them when the script starts), a ``scripts/``
 directory served over MAVLink FTP (:mod:`ksbo_sim.mavlink.ftp`), and MAV_CMD_SCRIPTING (42701, p1 = 3) restarting
 the scripts: the guard then runs when ``scripts/ksbo_guard.lua`` is there, configured from the script's own
@@ -40,7 +41,6 @@ SEV_CRITICAL, SEV_WARNING, SEV_INFO = 2, 4, 6
 
 PARAMS = [
     ParamSpec("SCR_ENABLE", 1, 0, 1, "INT32", "Lua scripting (the simulated guard runs when 1)"),
-    ParamSpec("MAV_GCS_SYSID", 255, 1, 255, "INT32", "system id whose heartbeat is the GCS link"),
     ParamSpec("KSG_STATE", 0.0, 0.0, 3.0, description="onboard guard: 0 idle, 1 trial armed, 2 tripped, 3 refused"),
     ParamSpec("KSG_TRIP", 0.0, 0.0, 7.0, description="onboard guard: why it tripped"),
     ParamSpec("KSG_F8", 0.0, 0.0, 1.0, description="onboard guard: 1 flies the figure-8 on board"),
@@ -48,6 +48,14 @@ PARAMS = [
     ParamSpec("KSG_MODES", 0.0, 0.0, 16777215.0, description="onboard guard: the tuner's own modes besides GUIDED "
                                                              "(bit per custom mode) for the next armed flight"),
 ]
+
+
+def params(gcs_sysid_param: str = "MAV_GCS_SYSID") -> list[ParamSpec]:
+    """The guard's parameters with the ground station's system id under the personality's name."""
+    return [PARAMS[0], ParamSpec(gcs_sysid_param, 255, 1, 255, "INT32", "system id whose heartbeat is the GCS link"),
+            *PARAMS[1:]]
+
+
 #: Never persisted: a restarted vehicle's guard starts idle, as the Lua does.
 VOLATILE = ("KSG_STATE", "KSG_TRIP", "KSG_F8", "KSG_T0", "KSG_MODES")
 
@@ -111,7 +119,7 @@ class SimGuard:
             self._next_tick = 0
 
     def heartbeat(self, msg: Any) -> None:
-        if msg.get_srcSystem() == int(self.s.params["MAV_GCS_SYSID"]):
+        if msg.get_srcSystem() == int(self.s.params[self.s.personality.gcs_sysid_param]):
             self.gcs_seen_us = self.s.now_us
 
     # --- the script's loop -------------------------------------------------------------------------------
@@ -204,7 +212,7 @@ class SimGuard:
         if f.mode is not Mode.GUIDED:
             return "not in GUIDED"
         if self._silent_ms(now_us) > self.cfg["LINK_TIMEOUT_MS"]:
-            return "no heartbeat from MAV_GCS_SYSID"
+            return f"no heartbeat from {self.s.personality.gcs_sysid_param}"
         return None
 
     def _watch(self, now_us: int) -> None:

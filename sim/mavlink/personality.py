@@ -64,6 +64,8 @@ class Personality:
     mission_home_item: bool = True
     #: Seconds after an upload while the mission is being checked: AUTO is "temporarily rejected" (PX4).
     mission_check_s: float = 0.0
+    #: The parameter naming the ground station's system id (ArduPilot 4.7 MAV_GCS_SYSID; 4.5/4.6 SYSID_MYGCS).
+    gcs_sysid_param: str = "MAV_GCS_SYSID"
 
     @property
     def capabilities(self) -> int:
@@ -95,9 +97,15 @@ _COPTER_NAMES = {0: "STABILIZE", 3: "AUTO", 4: "GUIDED", 5: "LOITER", 6: "RTL", 
 OURS = Personality(name="ours", autopilot=MAV_AUTOPILOT_GENERIC, modes=_COPTER_MODES, mode_names=_COPTER_NAMES,
                    encoding="c_cast")
 
+#: ArduCopter 4.7 (PSC_NE_* names, MAV_GCS_SYSID): AUTOPILOT_VERSION says 4.7.0 official.
 ARDUPILOT = Personality(name="ardupilot", autopilot=MAV_AUTOPILOT_ARDUPILOTMEGA, modes=_COPTER_MODES,
                         mode_names=_COPTER_NAMES, encoding="c_cast", echo_index=False, vendor_id=0,
-                        flight_sw_version=(4 << 24) | (7 << 16) | (0 << 8) | 0, custom_version=b"ksbosim\0")
+                        flight_sw_version=(4 << 24) | (7 << 16) | (0 << 8) | 255, custom_version=b"ksbosim\0")
+#: The generation before it, as ArduCopter 4.5 and 4.6 are (PSC_POSXY_* names, SYSID_MYGCS): 4.6.0 official.
+ARDUPILOT_LEGACY = Personality(name="ardupilot-legacy", autopilot=MAV_AUTOPILOT_ARDUPILOTMEGA, modes=_COPTER_MODES,
+                               mode_names=_COPTER_NAMES, encoding="c_cast", echo_index=False, vendor_id=0,
+                               flight_sw_version=(4 << 24) | (6 << 16) | (0 << 8) | 255,
+                               custom_version=b"ksbosim\0", gcs_sysid_param="SYSID_MYGCS")
 
 _PX4_MODES = {393216: Mode.GUIDED, 50593792: Mode.HOLD, 196608: Mode.HOLD, 100925440: Mode.LAND,
               33816576: Mode.TAKEOFF, 84148224: Mode.RTL, 65536: Mode.MANUAL, 131072: Mode.MANUAL,
@@ -111,6 +119,7 @@ PX4 = Personality(name="px4", autopilot=MAV_AUTOPILOT_PX4, modes=_PX4_MODES, mod
                   after_takeoff_mode=Mode.HOLD, vendor_id=0, flight_sw_version=(1 << 24) | (15 << 16) | 255,
                   mission_home_item=False, mission_check_s=1.0)
 
-#: CLI --personality values; ardupilot-legacy differs from ardupilot only in the model's parameter names.
-PERSONALITIES: dict[str, Personality] = {"ours": OURS, "ardupilot": ARDUPILOT, "ardupilot-legacy": ARDUPILOT,
+#: CLI --personality values; ardupilot-legacy differs from ardupilot in the model's parameter names, the firmware
+#: version it reports and the name of the ground station's system id parameter.
+PERSONALITIES: dict[str, Personality] = {"ours": OURS, "ardupilot": ARDUPILOT, "ardupilot-legacy": ARDUPILOT_LEGACY,
                                          "px4": PX4}

@@ -37,7 +37,7 @@ from ksbo_sim.estimator import Estimator
 from ksbo_sim.mavlink.commands import Commands
 from ksbo_sim.mavlink.flight import SEV_INFO, SEV_NOTICE, STATUS_EMERGENCY, Flight
 from ksbo_sim.mavlink.ftp import FtpServer
-from ksbo_sim.mavlink.guard import PARAMS as GUARD_PARAMS
+from ksbo_sim.mavlink.guard import params as guard_params
 from ksbo_sim.mavlink.guard import VOLATILE as GUARD_VOLATILE
 from ksbo_sim.mavlink.guard import SimGuard
 from ksbo_sim.mavlink.link import Link
@@ -107,7 +107,7 @@ class Server:
         self.ftp = FtpServer(lambda payload, sysid, compid: self.mav.file_transfer_protocol_send(0, sysid, compid,
                                                                                                  payload))
         self.guard = SimGuard(self)
-        own = endpoint_specs() + self.power.params + GUARD_PARAMS
+        own = endpoint_specs() + self.power.params + guard_params(personality.gcs_sysid_param)
         self._own = {s.name for s in own}
         self.params = ParamTable(list(model.param_specs()) + own, self._param_changed, personality.encoding,
                                  readonly=("SIM_LOCKSTEP",), volatile=FAULT_PARAMS + GUARD_VOLATILE, path=params_path,

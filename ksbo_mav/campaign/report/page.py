@@ -129,6 +129,8 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
         rows.append(("Search ended", esc(result["search_end"]["text"])))
     elif result and (rec.settings.get("config") or {}).get("early_stop") is False:
         rows.append(("Search ended", "the whole budget flown (early stop off: --no-early-stop)"))
+    if rec.settings.get("firmware"):  # the line the tool said at connect (docs/firmware.md)
+        rows.append(("Firmware", "<br/>".join(esc(line) for line in rec.settings["firmware"])))
     rows.append(("Flights", esc(f"{len(rec.rows)} ("
                                 + ", ".join(f"{n} {role}" for role, n in by_role.items()) + ")")))
     if result and result.get("link"):
