@@ -52,5 +52,6 @@ def stick_override_words(values: Mapping[str, float]) -> str:
                     "switching modes")
         threshold = values.get("COM_RC_STICK_OV")
         more = f" more than {float(threshold):g} %" if threshold is not None else ""
-        return f"moving a stick{more} (COM_RC_OVERRIDE bit 1, COM_RC_STICK_OV) switches to Position mode and ends the trial"
+        return (f"moving a stick{more} (COM_RC_OVERRIDE bit 1, COM_RC_STICK_OV) switches to Position mode and ends "
+                "the trial")
     return ""
