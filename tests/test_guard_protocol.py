@@ -145,3 +145,29 @@ def test_a_campaign_installs_the_guard_and_leaves_no_trace_of_it(tmp_path):
             assert v.params.read("KSG_STATE") == 0 and v.params.read("MAV_GCS_SYSID") == 255
         finally:
             v.close()
+
+
+@pytest.mark.parametrize(("personality", "gcs_sysid", "gain"), [
+    ("ardupilot", "MAV_GCS_SYSID", "PSC_NE_POS_P"),  # ArduCopter 4.7
+    ("ardupilot-legacy", "SYSID_MYGCS", "PSC_POSXY_P"),  # ArduCopter 4.5 / 4.6
+])
+def test_both_ardupilot_generations_link_cut_restores_baseline(personality, gcs_sysid, gain):
+    """The guard's protocol on each ArduPilot generation of the JSBSim copter: installed with the generation's
+    ground-station id parameter set to the tuner, armed over a trial of that generation's gain names, tripped by a
+    cut link, the baseline back and the vehicle holding."""
+    with SimProcess("--speedup", "1", "--vehicle", "copter3d", "--personality", personality,
+                    "--set", "TKOFF_SPEED=3") as s:
+        proc, values = start_tuner(device(s), "ardupilot-copter", {"trial": {gain: 1.5}})
+        obs = Observer(device(s))
+        try:
+            armed_ms = obs.armed_at()
+            assert obs.param(gain) == pytest.approx(1.5)
+            assert obs.param(gcs_sysid) != 255  # the tuner's own system id while the campaign runs
+            stop(proc)
+            assert obs.until(lambda: obs.first_alive(GuardState.TRIPPED, armed_ms) is not None, 20.0), obs.texts
+            assert obs.param("KSG_TRIP") == 1
+            assert_baseline(obs, values["baseline"])
+            assert obs.until(lambda: obs.mode == LOITER, 5.0)
+        finally:
+            stop(proc)
+            obs.close()
