@@ -53,6 +53,7 @@ class CampaignConfig:
     onboard_guard: bool = _default("onboard_guard")
     trial_source: str = _default("trial_source")
     trial_step: bool | None = _default("trial_step")  # None: the profile's, decided by settle()
+    wind_mps: float | None = _default("wind_mps")  # None: no wind declared, no prediction
     settle_s: float = _default("settle_s")
     sysid: int | None = _default("sysid")
     compid: int | None = _default("compid")

@@ -39,6 +39,7 @@ def campaign_plan(v: Vehicle, cfg: CampaignConfig, d: CampaignDir, base: dict[st
         f"(+ prior '{kind}'{prior_note(kind, prior_size(cfg, kind))}), seed {cfg.seed}" + options_note(cfg, v.profile),
         "gains (profile name, vehicle name, current value, optimiser range):", *rows,
         flight_plan(v.profile, n_prior, cfg.budget, cfg.confirm, cfg.settle_s, cfg.baseline_every),
+        *([v.wind_plan] if getattr(v, "wind_plan", None) else []),  # tune --wind: ksbo_mav.campaign.wind_preflight
         ValidationPlan.describe(v.profile, cfg.validation),
         *([f"early stop: the search may end after {cfg.min_trials} trials, when the next flight's expected gain is "
            "below the re-flight noise (--no-early-stop flies the budget)"] if cfg.early_stop else []),

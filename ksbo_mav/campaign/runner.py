@@ -43,6 +43,7 @@ from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent, summarize
 from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.campaign.validation_session import check_validation, validate_after_tune
 from ksbo_mav.campaign.warm_start import Earlier, warm_search
+from ksbo_mav.campaign.wind_preflight import apply_wind_plan
 from ksbo_mav.campaign.widen import widen_search
 from ksbo_mav.errors import CampaignPaused, InputError, KsboError
 from ksbo_mav.mav.approach import check_moving_start
@@ -129,6 +130,7 @@ class Campaign:
         v = connect(self.cfg, self.dir, self.endpoint, self.resume, self.connect_timeout, self.log)
         try:
             self.cfg, self.rate = settle(self.cfg, v.profile, self.dir.read_settings() if self.resume else None)
+            self.cfg = apply_wind_plan(self.cfg, v, self.log)  # the day's wind, before anything flies
             self.on_settled(self.cfg)
         except BaseException:
             v.close()

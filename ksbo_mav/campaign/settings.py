@@ -140,6 +140,9 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("trial_step", Unset(BOOL), None, "--trial-step",
             "each trial also flies a position step after its figure-8; leaning past the tilt limit there aborts "
             "it (unset: the profile's)"),
+    Setting("wind_mps", Unset(Interval(0.0, 30.0)), None, "--wind",
+            "the wind (m/s) known before takeoff: past the tilt limit in it, the limit is raised to the vehicle's "
+            "own less 3 deg or the figure-8 scaled down (unset: none)"),
     Setting("settle_s", Interval(0.0), 1.0, None, "seconds of hover at the start point before a trial's figure-8"),
     Setting("sysid", Unset(_whole(1, 255)), None, "--sysid", "our MAVLink system id (unset: 245)"),
     Setting("compid", Unset(_whole(1, 255)), None, "--compid", "our MAVLink component id (unset: 191)"),

@@ -12,7 +12,7 @@ from ksbo_mav.opt import METHODS
 
 #: Options that define a campaign; on --resume, one given with a different value than stored is refused.
 _DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen", "rate_hz", "warm_start",
-             "early_stop", "min_trials", "trial_step")
+             "early_stop", "min_trials", "trial_step", "wind_mps")
 #: The option groups of `tune --help`, in the order a pilot needs them (connection first: always needed).
 GROUPS = ("connection (exactly one)", "campaign directory", "profile and budget", "end of the campaign",
           "optimiser", "mission and drift", "help")
@@ -84,6 +84,7 @@ def add_parser(subparsers) -> None:
                    help=_help("trial_step"))
     g.add_argument("--rate", dest="rate_hz", type=int, metavar="HZ", help=_help("rate_hz", "; 50, 25, 20 or 10 "
                                                                                        "(docs/links.md)"))
+    g.add_argument("--wind", dest="wind_mps", type=float, metavar="M/S", help=_help("wind_mps"))
     g.add_argument("--baseline-every", type=int, metavar="N", help=_help("baseline_every"))
     g.add_argument("--on-drift", metavar="ACTION", help=_help("on_drift"))
     p.add_argument_group(GROUPS[6]).add_argument("-h", "--help", action="help", help="show this help and exit")
