@@ -151,8 +151,8 @@ BAD = {"dir": 7, "profile": "", "method": "ksb", "budget": 0, "seed": -1, "prior
        "early_stop": "yes", "min_trials": 0, "confirm": -1, "widen": "yes", "warm_start": " ", "baseline_every": 2.5,
        "on_drift": "ignore", "rate_hz": 30,
        "validation": "on", "accept": 1, "end": "crash", "onboard_guard": "off", "settle_s": float("nan"),
-       "trial_source": "radio", "trial_step": "yes", "wind_mps": -2.0, "sysid": 300, "compid": 0, "safety": {"z_min_m": "low"},
-       "options": ["beta"]}
+       "trial_source": "radio", "trial_step": "yes", "wind_mps": -2.0, "sysid": 300, "compid": 0,
+       "safety": {"z_min_m": "low"}, "options": ["beta"]}
 
 
 def test_every_declared_setting_is_a_config_field_and_has_a_bad_value_here():
