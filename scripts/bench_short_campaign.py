@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -51,9 +52,14 @@ def vehicle(a: argparse.Namespace):
         try:
             if a.stack == "px4":
                 sitl.set_param("COM_RCL_EXCEPT", 4, int32=True)  # no RC in SITL: allow OFFBOARD without it
-            if a.wind:
+            if a.wind and a.stack == "px4":  # SIH (PX4 main): the vector points where the wind comes from
+                sitl.set_param("SIH_WIND_N", a.wind * math.cos(math.radians(a.wind_from)))
+                sitl.set_param("SIH_WIND_E", a.wind * math.sin(math.radians(a.wind_from)))
+            elif a.wind:
                 sitl.set_param("SIM_WIND_SPD", a.wind)
                 sitl.set_param("SIM_WIND_TURB", a.turb)
+                if a.wind_from is not None:
+                    sitl.set_param("SIM_WIND_DIR", a.wind_from)
             yield endpoint(sitl)
         finally:
             sitl.stop()
@@ -91,7 +97,11 @@ def recorded_gains(a: argparse.Namespace) -> dict[str, float]:
 
 def run(a: argparse.Namespace) -> dict:
     d = Path(tempfile.mkdtemp(prefix="bench-short-")) / "campaign"
+    if a.stack == "px4" and a.wind and a.wind_from is None:
+        a.wind_from = 45.0
     rec: dict = {"stack": a.stack, "wind_mps": a.wind, "turb": a.turb, "seed": a.seed, "tune_args": a.tune,
+                 **({"wind_from_deg": a.wind_from} if a.wind_from is not None else {}),
+                 **({"px4_build": os.environ.get("KSBO_PX4_BUILD") or "1.15"} if a.stack == "px4" else {}),
                  "reference": a.reference or (f"label {a.reference_label}" if a.reference_label else None)}
     with vehicle(a) as (args, ep):
         t0 = time.time()
@@ -162,6 +172,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--wind", type=float, default=0.0, help="SITL: SIM_WIND_SPD (m/s)")
     ap.add_argument("--turb", type=float, default=0.0, help="SITL: SIM_WIND_TURB")
+    ap.add_argument("--wind-from", type=float, default=None,
+                    help="SITL: where the wind comes from, deg (ArduCopter SIM_WIND_DIR; PX4 main SIH_WIND_N/E, "
+                         "default 45)")
     ap.add_argument("--instance", type=int, default=3, help="SITL instance (PX4: 0..9)")
     ap.add_argument("--speedup", type=float, default=0.0,
                     help="SITL speed-up (0: ArduCopter 10, PX4 5); lower on a loaded machine")

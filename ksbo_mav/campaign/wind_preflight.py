@@ -125,7 +125,8 @@ def plan_for_wind(wind_mps: float, f8: Figure8H, tilt_max_deg: float, stack: str
         scaled = replace(f8, amp_north=f8.amp_north * s, amp_east=f8.amp_east * s)
         p = peak_lean_deg(scaled, wind_mps, drag)
         if p + HEADROOM_DEG <= limit:
-            why = f"the limit raised to {limit:g} deg ({own[1]} less {MARGIN_DEG:g}) and " if raised else ""
+            why = (f"the limit raised to {limit:g} deg ({own[1]} {own[0]:g} deg less {MARGIN_DEG:g}) and "
+                   if raised else "")
             return WindPlan(wind_mps, peak, limit, s,
                             f"{said}, past the tilt limit {tilt_max_deg:g} deg: {why}the figure-8 scaled to "
                             f"{s:.0%} ({2 * scaled.amp_north:g} m x {2 * scaled.amp_east:g} m, {p:.1f} deg)")
