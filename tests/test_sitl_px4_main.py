@@ -40,7 +40,7 @@ def test_px4_main_says_its_firmware_generation_and_wind_plan(sitl, tmp_path):
 
 def _thrust_direction(att) -> np.ndarray:
     """Unit north-east direction of the thrust's horizontal part (the body's up axis) from ATTITUDE."""
-    cr, sr, cp, sp = math.cos(att.roll), math.sin(att.roll), math.cos(att.pitch), math.sin(att.pitch)
+    cr, sr, sp = math.cos(att.roll), math.sin(att.roll), math.sin(att.pitch)
     cy, sy = math.cos(att.yaw), math.sin(att.yaw)
     up = -np.array([cy * sp * cr + sy * sr, sy * sp * cr - cy * sr])
     return up / np.linalg.norm(up)
