@@ -55,3 +55,14 @@ def stick_override_words(values: Mapping[str, float]) -> str:
         return (f"moving a stick{more} (COM_RC_OVERRIDE bit 1, COM_RC_STICK_OV) switches to Position mode and ends "
                 "the trial")
     return ""
+
+
+#: PX4 serves ``@PARAM/param.pck`` over MAVLink FTP from PR #28435 (merged after its main of 2026-08-13, so from
+#: the 1.19 series on); every release before it answers "file not found". A 1.19.0-dev may be either: it is asked.
+PARAM_FILE_FROM = (1, 19)
+
+
+def serves_param_file(stack: str, flight_sw_version: int) -> bool:
+    """Whether asking this vehicle for ``@PARAM/param.pck`` can succeed (False only for PX4 before 1.19)."""
+    v = int(flight_sw_version)
+    return stack != "px4" or (v >> 24 & 0xFF, v >> 16 & 0xFF) >= PARAM_FILE_FROM

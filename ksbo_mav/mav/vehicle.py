@@ -29,7 +29,7 @@ from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.params import CAPABILITY_FTP, ParamClient
 from ksbo_mav.mav.pilot import taken_over
 from ksbo_mav.mav.power import PowerWatch
-from ksbo_mav.mav.px4_generation import px4_generation
+from ksbo_mav.mav.px4_generation import px4_generation, serves_param_file
 from ksbo_mav.mav.signing import needs_key
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
 from ksbo_mav.mav.takeoff_landing import ensure_airborne, land
@@ -92,6 +92,10 @@ class Vehicle:
             log(f"vehicle sysid {ident.sysid}: {stack.name} {ident.firmware}, type {ident.vehicle_type}")
             params = ParamClient(link, stack.encoding)
             use_ftp = param_ftp and bool(ident.capabilities & CAPABILITY_FTP)
+            if use_ftp and not serves_param_file(stack.name, ident.flight_sw_version):
+                log(f"parameters: PX4 {ident.firmware} serves no @PARAM/param.pck (PX4 serves it from 1.19 on, PR "
+                    "#28435): the PARAM protocol")
+                use_ftp = False
             table = params.fetch_all(progress=lambda got, n: log(f"parameters: {got} of {n or '?'} so far"),
                                      ftp=use_ftp, cache=stack.name if param_cache and stack.param_hash else None)
             dl = params.last_download

@@ -122,6 +122,17 @@ def condition_objects(args: argparse.Namespace) -> tuple | None:
     return (battery, conditions) if battery is not None or conditions is not None else None
 
 
+def _firmware(text: str) -> int:
+    """``X.Y.Z`` (an official release) or ``X.Y.Z-dev|alpha|beta|rc`` -> AUTOPILOT_VERSION.flight_sw_version."""
+    kinds = {"dev": 0, "alpha": 64, "beta": 128, "rc": 192, "": 255}
+    number, _, kind = text.partition("-")
+    parts = number.split(".")
+    if len(parts) != 3 or not all(x.isdigit() and int(x) < 256 for x in parts) or kind not in kinds:
+        raise argparse.ArgumentTypeError(f"expected X.Y.Z or X.Y.Z-dev, got {text!r}")
+    major, minor, patch = (int(x) for x in parts)
+    return (major << 24) | (minor << 16) | (patch << 8) | kinds[kind]
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     where = p.add_mutually_exclusive_group()
     where.add_argument("--udp", type=_hostport, metavar="HOST:PORT",
@@ -147,6 +158,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--delay-ms", type=float, default=None, metavar="MS", help="delay sent messages")
     p.add_argument("--fault-after", type=float, default=None, metavar="S",
                    help="faults start S simulated seconds into the guided setpoint stream")
+    p.add_argument("--firmware", type=_firmware, default=None, metavar="X.Y.Z[-dev]",
+                   help="the firmware version AUTOPILOT_VERSION reports (default: the personality's)")
+    p.add_argument("--param-file", action="store_true",
+                   help="serve the parameters as @PARAM/param.pck over MAVLink FTP (and say FTP in the capabilities)")
     p.add_argument("--set", type=_assignment, action="append", default=[], metavar="NAME=VALUE",
                    help="set a parameter at start (not persisted); repeatable")
     add_condition_arguments(p)
@@ -155,7 +170,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Build the endpoint from parsed options, print the ready line, serve until SIGINT/SIGTERM."""
     from ksbo_sim.mavlink.link import Link
-    from ksbo_sim.mavlink.personality import PERSONALITIES
+    from dataclasses import replace
+
+    from ksbo_sim.mavlink.param_file import pack
+    from ksbo_sim.mavlink.personality import CAP_FTP, PERSONALITIES
     from ksbo_sim.mavlink.server import Server
     from ksbo_sim.mavlink.vehicles import make_vehicle
 
@@ -184,12 +202,20 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise SimInputError(f"cannot listen on {kind} {host}:{port}: {exc.strerror or exc}") from None
     try:
-        server = Server(model, PERSONALITIES[args.personality], link, lockstep=args.lockstep, speedup=args.speedup,
+        personality = PERSONALITIES[args.personality]
+        if args.firmware is not None:
+            personality = replace(personality, flight_sw_version=args.firmware)
+        if args.param_file:
+            personality = replace(personality, extra_caps=personality.extra_caps | CAP_FTP)
+        server = Server(model, personality, link, lockstep=args.lockstep, speedup=args.speedup,
                         sysid=args.sysid, seed=args.seed, params_path=args.params, product_id=product_id,
                         overrides=overrides, power=condition_objects(args))
     except BaseException:
         link.close()
         raise
+    if args.param_file:
+        server.ftp.readable["@PARAM/param.pck"] = lambda: pack([(s.name, server.params[s.name], s.type == "INT32")
+                                                         for s in server.params.specs])
     h, p = link.address
     clock = "lockstep" if args.lockstep else f"speedup={args.speedup:g}"
     print(f"ksbo-sim ready {kind}:{h}:{p} vehicle={args.vehicle} personality={args.personality} "
