@@ -33,6 +33,10 @@ def campaign(ardupilot_sitl, tmp_path_factory):
 def test_campaign_takes_off_flies_lands_and_leaves_no_trace(ardupilot_sitl, campaign):
     d, summary, log = campaign
     assert "arming and taking off to 10 m" in log and "landed and disarmed" in log
+    # the firmware line (docs/firmware.md): this SITL is 4.7.0-dev of July 2025, the legacy PSC_* generation
+    assert ("firmware: ArduPilot 4.7.0-dev (AUTOPILOT_VERSION), parameter generation legacy (PSC_POSXY_*, "
+            "PSC_VELZ_*, PSC_ACCZ_*), verified: flown on SITL here (docs/firmware.md, row ardupilot 4.7.0-dev "
+            "legacy)") in " ".join(log.split())
     recs = trials(d)
     assert len(recs) == 4 and all(r["outcome"] == "ok" for r in recs)
     assert summary["baseline"]["trial"] == 0 and summary["baseline"]["P"] == pytest.approx(0.5)
