@@ -25,7 +25,7 @@ def campaign(px4_sitl, tmp_path_factory):
 def test_px4_campaign_from_the_ground(px4_sitl, campaign):
     d, summary, log = campaign
     assert "arming and taking off to 10 m" in log and "landed and disarmed" in log
-    if px4_sitl.build == "1.15":  # the firmware line (docs/firmware.md); KSBO_PX4_BUILD=main: tests/test_sitl_px4_main.py
+    if px4_sitl.build == "1.15":  # the firmware line (docs/firmware.md); on main: test_sitl_px4_main.py
         assert ("parameter generation <= 1.16 (MPC_HOLD_DZ, COM_RC_OVERRIDE), verified: flown on SITL here "
                 "(docs/firmware.md, row px4 1.15 any)") in " ".join(log.split())
     # PX4's link-loss failsafes said before arming and kept in the report (a loopback link: beside the vehicle)
