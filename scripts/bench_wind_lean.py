@@ -66,10 +66,12 @@ def record(d: Path, stack: str, wind: float, wind_from: float | None, note: str)
         decided = {"tilt_max_deg": plan.tilt_max_deg, "scale": plan.scale, "text": plan.text}
     except InputError as exc:
         decided = {"refused": str(exc)}
-    leans = []
+    leans, first = [], True
     for p in sorted((d / "trials").glob("trial_*.json")):
         t = json.loads(p.read_text())
-        if str(t.get("label", "")).startswith("baseline"):  # the first baseline flight and its re-flights
+        # the baseline: the first optimiser flight (the campaign's reference) and the re-flights of it
+        if (first and t.get("label") == "opt") or str(t.get("label", "")).startswith("baseline"):
+            first = first and t.get("label") != "opt"
             lean = figure8_lean(t["tlog"]) if t.get("tlog") else None
             if lean is not None:
                 leans.append(round(lean, 2))

@@ -91,7 +91,8 @@ def validate_after_tune(v: Vehicle, d: CampaignDir, cfg: CampaignConfig, base: d
     if why:
         rep = ValidationReport(skipped=why)
     else:
-        rep = fly(v, d, plan, base, Journal(d.journal), x0, best, trials.guard, trials.conditions, hint, log)
+        rep = fly(v, d, plan, base, Journal(d.journal), x0, best, trials.guard, trials.conditions, hint, log,
+                  cfg.safety)
     for line in rep.lines():
         log(line)
     return rep
@@ -112,14 +113,15 @@ def _nothing_to_fly(plan: ValidationPlan | None, mode: str, profile: str, x0: np
 
 def fly(v: Vehicle, d: CampaignDir, plan: ValidationPlan, base: dict[str, float], journal: Journal, x0: np.ndarray,
         best: np.ndarray, guard: BatteryGuard | None, conditions: Any, hint: str,
-        log: Callable[[str], None]) -> ValidationReport:
-    """Fly the plan (the pack guard's stop line names ``hint``); restores ``base`` after every flight."""
+        log: Callable[[str], None], safety: dict[str, float] | None = None) -> ValidationReport:
+    """Fly the plan (the pack guard's stop line names ``hint``) with the campaign's ``safety`` overrides (a raised
+    tilt limit for the day's wind among them); restores ``base`` after every flight."""
     if guard is not None:
         guard.resume_hint = hint
     if v.guard is not None:
         log("validation: the onboard guard watches every flight (GUIDED and the hold or AUTO mode the flight switches "
             "to are the tool's; any other mode is a pilot's)")
-    flights = ValidationFlights(v, base, d, plan, guard, log, conditions=conditions)
+    flights = ValidationFlights(v, base, d, plan, guard, log, safety=safety, conditions=conditions)
     verdicts = flights.run(x0, best, candidates_from(journal, x0, best, plan.candidates))
     return ValidationReport(verdicts, flights.stopped)
 
@@ -156,7 +158,7 @@ def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None 
         where = _where(endpoint)
         rep = fly(v, d, plan, home, Journal(d.journal), x0, best,
                   BatteryGuard(v, f"ksbo-mav validate {d.root} {where}"), ConditionWatch(v),
-                  f"ksbo-mav validate {d.root} {where}", log)
+                  f"ksbo-mav validate {d.root} {where}", log, cfg.safety)
         v.restore(home)
         d.validation_start.unlink(missing_ok=True)  # done: a later validate notes what it finds then
         log("the gains found on the vehicle are back, verified by a fresh read")
