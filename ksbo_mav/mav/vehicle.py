@@ -93,8 +93,8 @@ class Vehicle:
             params = ParamClient(link, stack.encoding)
             use_ftp = param_ftp and bool(ident.capabilities & CAPABILITY_FTP)
             if use_ftp and not serves_param_file(stack.name, ident.flight_sw_version):
-                log(f"parameters: PX4 {ident.firmware} serves no @PARAM/param.pck (PX4 serves it from 1.19 on, PR "
-                    "#28435): the PARAM protocol")
+                log(f"parameters: PX4 {ident.firmware.removesuffix('-official')} serves no @PARAM/param.pck (PX4 "
+                    "serves it from 1.19 on, PR #28435): the PARAM protocol")
                 use_ftp = False
             table = params.fetch_all(progress=lambda got, n: log(f"parameters: {got} of {n or '?'} so far"),
                                      ftp=use_ftp, cache=stack.name if param_cache and stack.param_hash else None)
