@@ -34,14 +34,14 @@ def _where(items: list[str]) -> dict[str, str]:
 
 
 def cmd_run(a: argparse.Namespace) -> int:
-    from ksbo_bench import runner, sweep as sweeps
+    from ksbo_bench import driver, sweep as sweeps
     from ksbo_bench.store import Store
 
     sw = sweeps.load(a.sweep)
     store = Store(a.store or sw.store)
     seeds = parse_ints(a.seeds) if a.seeds else None
     if a.dry_run:
-        todo, skipped = runner.pending(sw, store, seeds, _where(a.only))
+        todo, skipped = driver.pending(sw, store, seeds, _where(a.only))
         for c in todo:
             print(c.id)
         print(f"{len(todo)} to run, {skipped} already in {store.path}", file=sys.stderr)
@@ -54,7 +54,7 @@ def cmd_run(a: argparse.Namespace) -> int:
         from ksbo_bench.local_executor import LocalExecutor
 
         ex = LocalExecutor(a.jobs or 1, a.sitl_slots, a.retries)
-    summ = runner.run(sw, ex, store, seeds, _where(a.only))
+    summ = driver.run(sw, ex, store, seeds, _where(a.only))
     for line in summ.failed:
         print(f"no record: {line}", file=sys.stderr)
     return 1 if summ.failed else 0
@@ -73,7 +73,7 @@ def cmd_list(a: argparse.Namespace) -> int:
 
 
 def cmd_compare(a: argparse.Namespace) -> int:
-    from ksbo_bench.compare import compare
+    from ksbo_bench.store_compare import compare
 
     text, same = compare(Path(a.a), Path(a.b))
     print(text)
@@ -81,7 +81,7 @@ def cmd_compare(a: argparse.Namespace) -> int:
 
 
 def cmd_report(a: argparse.Namespace) -> int:
-    from ksbo_bench.report.build import main as report_main
+    from ksbo_bench.report.pages import main as report_main
 
     return report_main(check=a.check)
 

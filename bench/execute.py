@@ -8,7 +8,7 @@ import time
 from typing import Any
 
 from ksbo_bench import record
-from ksbo_bench.errors import CellError, InfraError
+from ksbo_bench.cell_errors import CellError, InfraError
 from ksbo_bench.kinds import KINDS
 from ksbo_bench.sweep import Cell
 

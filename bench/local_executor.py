@@ -9,7 +9,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Iterator
 
-from ksbo_bench.errors import InfraError
+from ksbo_bench.cell_errors import InfraError
 from ksbo_bench.execute import pin_blas, run_cell
 from ksbo_bench.kinds import KINDS
 from ksbo_bench.sweep import Cell

@@ -16,7 +16,7 @@ import os
 import socket
 from typing import Any, Iterator
 
-from ksbo_bench.errors import InfraError
+from ksbo_bench.cell_errors import InfraError
 from ksbo_bench.execute import run_cell
 from ksbo_bench.kinds import KINDS
 from ksbo_bench.sweep import Cell

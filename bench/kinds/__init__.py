@@ -4,7 +4,7 @@
 - ``resources(key)`` — what the cell occupies besides one CPU: ``{"sitl": 1}`` for a cell that starts an autopilot
   SITL (the Ray executor asks for that custom resource; the local executor runs at most ``--sitl-slots`` at once),
 - ``run(key) -> dict`` with ``flights``, ``safety``, ``result``, ``timing`` (ksbo_bench.record), raising
-  ksbo_bench.errors.InfraError when the infrastructure, not the gains, failed.
+  ksbo_bench.cell_errors.InfraError when the infrastructure, not the gains, failed.
 
 Modules are imported when a cell runs, so a sweep of planar cells loads no SITL code.
 """

@@ -9,7 +9,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
-from ksbo_bench.errors import InfraError
+from ksbo_bench.cell_errors import InfraError
 from ksbo_bench.kinds import KINDS
 from ksbo_bench.store import Store
 from ksbo_bench.sweep import Cell, Sweep, varying
