@@ -10,3 +10,7 @@ class InfraError(RuntimeError):
 class CellError(RuntimeError):
     """The cell's own code failed (a bug, a bad option): said once with the cell's key, not retried, not stored,
     so the next run tries it again."""
+
+
+class SweepError(ValueError):
+    """A sweep file that cannot be read or declares something the runner cannot run (one line, no traceback)."""

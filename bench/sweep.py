@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ksbo_bench.cell_errors import SweepError
+
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
@@ -37,10 +39,6 @@ else:  # pragma: no cover
 ROOT = Path(__file__).resolve().parents[1]
 SWEEPS = ROOT / "benchmarks" / "sweeps"
 STORES = ROOT / "benchmarks" / "store"
-
-
-class SweepError(ValueError):
-    """A sweep file that cannot be read or declares something the runner cannot run (one line, no traceback)."""
 
 
 def parse_ints(text: str) -> list[int]:

@@ -15,7 +15,7 @@ import importlib
 from dataclasses import dataclass
 from typing import Any
 
-from ksbo_bench.sweep import SweepError
+from ksbo_bench.cell_errors import SweepError
 
 
 @dataclass(frozen=True)

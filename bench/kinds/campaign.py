@@ -1,7 +1,7 @@
 """Cell kind ``campaign``: a full ``ksbo-mav tune`` campaign from the ground on a fresh vehicle (ksbo_bench.kinds.
 vehicles), then, on the vehicle it left hovering, named gain sets re-flown in turn by separate flights
-(ksbo_bench.kinds.independent_refly): the baseline, the recommendation, the best flown gains at the last flights where they
-changed, and reference gains (another sweep's recorded recommendation: a long campaign, an oracle's optimum).
+(ksbo_bench.kinds.independent_refly): the baseline, the recommendation, the best flown gains at the last flights
+where they changed, and reference gains (another sweep's recorded recommendation: a long campaign, an oracle's optimum).
 
 Key: ``vehicle``, ``seed``; ``tune_args`` (a list: what `tune` gets besides the vehicle, e.g. ["--budget", "10"]),
 ``refly`` (flights of each set, default 3; 0: none), ``candidates`` (best-so-far sets re-flown, default 4),
@@ -28,7 +28,7 @@ from typing import Any
 from ksbo_bench.cell_errors import InfraError
 from ksbo_bench.kinds.independent_refly import changed_params, mean, refly_in_turn
 from ksbo_bench.kinds.vehicles import VEHICLES, change_at, fresh_vehicle, is_sitl
-from ksbo_bench.sweep import SweepError
+from ksbo_bench.cell_errors import SweepError
 
 N_CANDIDATES = 4
 

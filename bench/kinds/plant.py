@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ksbo_bench.sweep import SweepError
+from ksbo_bench.cell_errors import SweepError
 
 
 def check(key: dict[str, Any]) -> None:
