@@ -67,8 +67,9 @@ def cmd_list(a: argparse.Namespace) -> int:
     for sw in sweeps.all_sweeps():
         cells = sw.cells()
         done = Store(sw.store).done()
-        print(f"{sw.name:28s} {sw.kind:9s} {len(cells):5d} cells, {sum(c.id in done for c in cells):5d} stored  "
-              f"{sw.title}")
+        what = (f"{len(done):5d} records (archive)  " if sw.archive else
+                f"{len(cells):5d} cells, {sum(c.id in done for c in cells):5d} stored  ")
+        print(f"{sw.name:24s} {sw.kind:9s} {what}{sw.title}")
     return 0
 
 

@@ -49,6 +49,9 @@ def pending(sweep: Sweep, store: Store, seeds: list[int] | None = None,
 
 def run(sweep: Sweep, executor, store: Store, seeds: list[int] | None = None, where: dict[str, Any] | None = None,
         out: TextIO = sys.stderr) -> Summary:
+    if sweep.archive:
+        print(f"{sweep.name}: an archive of records (archive = true): nothing to run", file=out)
+        return Summary()
     todo, skipped = pending(sweep, store, seeds, where)
     summ = Summary(total=len(todo) + skipped, skipped=skipped)
     sitl = sum(1 for c in todo if KINDS[c.kind].resources(c.key).get("sitl"))

@@ -15,6 +15,9 @@ product of the declared values.
     method = ["ksbo", "ksbo-adaptive"]
     seed = "0-9"
 
+``archive = true`` in [sweep]: a store of records kept for their history (superseded defaults, one-off
+experiments), shown on its page, with no cell to run.
+
 ``[[grid]]`` (an array of tables) declares a union of such products, for settings that differ in more than one
 value (LineBO's 200 flights where the others fly 150). A cell's key is its declared values (fixed and grid): two
 cells with the same key are the same cell, and a record whose key is in the store is not run again.
@@ -87,12 +90,14 @@ class Sweep:
     store: Path
     report: dict[str, Any] = field(default_factory=dict)
     description: str = ""
+    archive: bool = False  # records kept for their history: no cell to run
+
 
     def cells(self, seeds: list[int] | None = None) -> list[Cell]:
         """Every cell, in declaration order (the first axis slowest); ``seeds`` replaces the seed axis."""
         out: list[Cell] = []
         seen: set[str] = set()
-        for grid in self.grids:
+        for grid in [] if self.archive else self.grids:
             axes = dict(grid)
             if seeds is not None:
                 if "seed" not in axes and "seed" not in self.fixed:
@@ -152,7 +157,7 @@ def load(path: str | Path) -> Sweep:
     store = Path(head["store"]) if "store" in head else STORES / name
     sweep = Sweep(name=name, path=p, kind=kind, title=head.get("title", name), fixed=fixed, grids=grids,
                   store=store if store.is_absolute() else ROOT / store, report=data.get("report", {}),
-                  description=head.get("description", ""))
+                  description=head.get("description", ""), archive=bool(head.get("archive", False)))
     for cell in sweep.cells()[:1]:
         KINDS[kind].check(cell.key)  # a missing or unknown value is said now, not after an hour of cells
     return sweep

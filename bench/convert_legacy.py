@@ -1,0 +1,108 @@
+"""The records of the benchmark scripts before ksbo-bench, converted once into the stores (kept to say how each old
+field maps; running it again rewrites the converted stores from the old files if they are still there).
+
+- benchmarks/plants/records.jsonl (bench_plants.py): today's strict runs -> plants-strict, the paper setting ->
+  plants-paper; the monitored runs (re-run by ksbo-bench) and every tagged run -> plants-history, its tag in the key.
+- benchmarks/campaign/{vehicle,paper}/*.json (bench_campaign.py) -> paper-comparison; benchmarks/campaign-tuning/
+  vehicle/*.json -> paper-tuning.
+
+A converted record has ``run.executor`` "converted" and ``run.code`` "before ksbo-bench"; its date is the machine
+line's where the old record had one.
+
+    python -m ksbo_bench.convert_legacy
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+from ksbo_bench.record import SCHEMA
+from ksbo_bench.store import Store
+from ksbo_bench.sweep import STORES
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+SUPERSEDED = "(before 2026-12-07: flown again by ksbo-bench)"
+
+
+def _run(machine: str | None, source: str) -> dict[str, Any]:
+    m = re.search(r"(\d{4}-\d\d-\d\d) (\d\d:\d\d) UTC", machine or "")
+    return {"code": "before ksbo-bench", "dirty": False,
+            "machine": re.sub(r",? ?\d{4}-\d\d-\d\d \d\d:\d\d UTC", "", machine).strip(", ") if machine else None,
+            "node": "", "executor": "converted", "started": f"{m.group(1)}T{m.group(2)}:00Z" if m else None,
+            "attempts": 1, "source": source}
+
+
+def plant_record(r: dict[str, Any], sweep: str) -> dict[str, Any]:
+    key = {k: r[k] for k in ("mode", "budget", "n_prior", "plant", "method", "seed")}
+    if r.get("local_prior"):
+        key["local_prior"] = True
+    if r.get("options"):
+        key["options"] = r["options"]
+    if sweep == "plants-history":
+        key["tag"] = r.get("tag") or SUPERSEDED
+    result = {k: r[k] for k in ("EP", "reflown_counts", "x", "orders", "reselection_changes", "stopped",
+                                "first_unsafe_at", "stop", "rms_ref", "rms_change", "best_flown_change", "sitl",
+                                "error") if k in r}
+    if "kinds" in r:
+        result["proposal_kinds"] = r["kinds"]
+    n_prior = r.get("n_prior", 0)
+    return {"schema": SCHEMA, "sweep": sweep, "kind": "plant", "key": key, "status": "ok",
+            "flights": {"total": n_prior + (r.get("nfev") or 0), "prior": n_prior, "search": r.get("nfev"),
+                        "reflown": int(sum(r.get("reflown_counts") or []))},
+            "safety": {"crashed": r["n_crashed"], "aborted": r["n_aborted"], "interrupted": 0,
+                       "unsafe": r["n_unsafe"], "prior_unsafe": r.get("n_prior_unsafe", 0)},
+            "result": result,
+            "timing": {"wall_s": r.get("wall_s"), "s_per_iter": r.get("s_per_iter"),
+                       "s_per_iter_last20": r.get("s_per_iter_last20")},
+            "run": _run(r.get("machine"), "benchmarks/plants/records.jsonl")}
+
+
+def plant_sweep(r: dict[str, Any]) -> str:
+    if r.get("tag") or r["mode"] == "monitor":
+        return "plants-history"
+    return "plants-strict" if r["n_prior"] == 0 else "plants-paper"
+
+
+def paper_record(r: dict[str, Any], sweep: str, source: str) -> dict[str, Any]:
+    drop = {"setting", "method", "seed", "n_unsafe", "unsafe_flights", "prior_unsafe", "n_prior", "seconds",
+            "s_per_iter", "wall", "flights"}
+    return {"schema": SCHEMA, "sweep": sweep, "kind": "paper",
+            "key": {"setting": r["setting"], "method": r["method"], "seed": r["seed"]}, "status": "ok",
+            "flights": {"total": len(r["flights"]), "prior": r["n_prior"], "search": len(r["y"]), "reflown": 16},
+            "safety": {"crashed": None, "aborted": None, "interrupted": 0, "unsafe": r["unsafe_flights"],
+                       "prior_unsafe": r["prior_unsafe"], "optimiser_unsafe": r["n_unsafe"]},
+            "result": {k: v for k, v in r.items() if k not in drop},
+            "timing": {"wall_s": r["wall"], "seconds": r["seconds"], "s_per_iter": r["s_per_iter"]},
+            "run": _run(None, source)}
+
+
+def _write(sweep: str, recs: list[dict[str, Any]]) -> None:
+    st = Store(STORES / sweep)
+    st.dir.mkdir(parents=True, exist_ok=True)
+    st.path.write_text("".join(json.dumps(r) + "\n" for r in recs))
+    print(f"{sweep}: {len(recs)} records -> {st.path}")
+
+
+def main() -> None:
+    out: dict[str, list[dict[str, Any]]] = {}
+    plants = BENCH / "plants" / "records.jsonl"
+    if plants.exists():
+        for line in plants.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                s = plant_sweep(r)
+                out.setdefault(s, []).append(plant_record(r, s))
+    for folder, sweep in ((BENCH / "campaign", "paper-comparison"), (BENCH / "campaign-tuning", "paper-tuning")):
+        for setting in ("vehicle", "paper"):
+            for p in sorted((folder / setting).glob("*.json")):
+                out.setdefault(sweep, []).append(paper_record(json.loads(p.read_text()), sweep,
+                                                              p.relative_to(BENCH.parent).as_posix()))
+    for sweep, recs in out.items():
+        _write(sweep, recs)
+
+
+if __name__ == "__main__":
+    main()
