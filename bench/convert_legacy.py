@@ -7,7 +7,7 @@ field maps; running it again rewrites the converted stores from the old files if
   vehicle/*.json -> paper-tuning.
 
 A converted record has ``run.executor`` "converted" and ``run.code`` "before ksbo-bench"; its date is the machine
-line's where the old record had one.
+line's where the old record had one; an old record without a machine line gets the one its last report named.
 
     python -m ksbo_bench.convert_legacy
 """
@@ -25,9 +25,12 @@ from ksbo_bench.sweep import STORES
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 SUPERSEDED = "(before 2026-12-07: flown again by ksbo-bench)"
+#: The machine of old records that name none: the one their last report named (runs not dated one by one).
+LAST_REPORT_MACHINE = "AMD EPYC, 2 cores, Python 3.11.7, numpy 2.4.6 (as the last report of these records named it)"
 
 
 def _run(machine: str | None, source: str) -> dict[str, Any]:
+    machine = machine or LAST_REPORT_MACHINE
     m = re.search(r"(\d{4}-\d\d-\d\d) (\d\d:\d\d) UTC", machine or "")
     return {"code": "before ksbo-bench", "dirty": False,
             "machine": re.sub(r",? ?\d{4}-\d\d-\d\d \d\d:\d\d UTC", "", machine).strip(", ") if machine else None,

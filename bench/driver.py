@@ -59,6 +59,7 @@ def run(sweep: Sweep, executor, store: Store, seeds: list[int] | None = None, wh
           + (f" ({sitl} on a SITL)" if sitl else ""), file=out, flush=True)
     if not todo:
         return summ
+    todo = [Cell(c.sweep, c.kind, c.key, KINDS[c.kind].inputs(c.key)) for c in todo]  # here, not on the node
     names = varying(todo)
     t0 = time.monotonic()
     first = True

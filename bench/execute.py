@@ -28,7 +28,7 @@ def pin_blas() -> None:
 
 
 def run_cell(sweep: str, kind: str, key: dict[str, Any], executor: str, node: str = "",
-             attempt: int = 1) -> dict[str, Any]:
+             attempt: int = 1, inputs: dict[str, Any] | None = None) -> dict[str, Any]:
     """The record of one cell. InfraError passes through (the executor retries it); any other exception becomes
     CellError with the cell named."""
     pin_blas()
@@ -36,7 +36,7 @@ def run_cell(sweep: str, kind: str, key: dict[str, Any], executor: str, node: st
     started = record.now()
     t0 = time.perf_counter()
     try:
-        out = KINDS[kind].run(key)
+        out = KINDS[kind].run(key, inputs)
     except InfraError:
         raise
     except Exception as e:  # noqa: BLE001 - said with the cell's key; the run goes on with the other cells

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import multiprocessing
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Iterator
 
 from ksbo_bench.cell_errors import InfraError
@@ -50,7 +49,7 @@ class LocalExecutor:
                     cell, attempt = running.pop(fut)
                     try:
                         yield cell, fut.result(), attempt
-                    except (InfraError, BrokenProcessPool) as e:
+                    except InfraError as e:
                         if attempt <= self.retries:
                             running[self._submit(pool, cell, attempt + 1)] = (cell, attempt + 1)
                         else:
@@ -60,4 +59,4 @@ class LocalExecutor:
 
     @staticmethod
     def _submit(pool: ProcessPoolExecutor, cell: Cell, attempt: int) -> Future:
-        return pool.submit(run_cell, cell.sweep, cell.kind, cell.key, "local", "", attempt)
+        return pool.submit(run_cell, cell.sweep, cell.kind, cell.key, "local", "", attempt, cell.inputs)

@@ -25,11 +25,11 @@ from ksbo_bench.sweep import Cell
 SITL_RESOURCE = "sitl"
 
 
-def _remote_cell(sweep: str, kind: str, key: dict[str, Any], attempt: int) -> dict[str, Any]:
+def _remote_cell(sweep: str, kind: str, key: dict[str, Any], attempt: int, inputs: dict[str, Any]) -> dict[str, Any]:
     import ray
 
     node = f"{socket.gethostname()}/{ray.get_runtime_context().get_node_id()[:8]}"
-    return run_cell(sweep, kind, key, "ray", node=node, attempt=attempt)
+    return run_cell(sweep, kind, key, "ray", node=node, attempt=attempt, inputs=inputs)
 
 
 class RayExecutor:
@@ -80,7 +80,7 @@ class RayExecutor:
             self._remote = ray.remote(_remote_cell)
         fn = self._remote.options(num_cpus=1, resources=res or None, max_retries=3,
                                               name=f"{cell.sweep}: {cell.label(80)}")
-        return fn.remote(cell.sweep, cell.kind, cell.key, attempt)
+        return fn.remote(cell.sweep, cell.kind, cell.key, attempt, cell.inputs)
 
     def map(self, cells: list[Cell]) -> Iterator[tuple[Cell, "dict[str, Any] | BaseException", int]]:
         import ray

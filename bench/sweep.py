@@ -68,6 +68,7 @@ class Cell:
     sweep: str
     kind: str
     key: dict[str, Any]
+    inputs: dict[str, Any] = field(default_factory=dict, compare=False)  # resolved by the driver, not the key
 
     @property
     def id(self) -> str:

@@ -3,7 +3,9 @@
 - ``REQUIRED`` (the key values it cannot run without) and ``check(key)`` (raises SweepError on a bad key),
 - ``resources(key)`` — what the cell occupies besides one CPU: ``{"sitl": 1}`` for a cell that starts an autopilot
   SITL (the Ray executor asks for that custom resource; the local executor runs at most ``--sitl-slots`` at once),
-- ``run(key) -> dict`` with ``flights``, ``safety``, ``result``, ``timing`` (ksbo_bench.record), raising
+- ``inputs(key) -> dict`` (optional) — what the cell needs from the driver's machine (another sweep's recorded
+  gains): resolved by the driver before the cell is sent, so a cell on a cluster node needs no store there,
+- ``run(key, inputs) -> dict`` with ``flights``, ``safety``, ``result``, ``timing`` (ksbo_bench.record), raising
   ksbo_bench.cell_errors.InfraError when the infrastructure, not the gains, failed.
 
 Modules are imported when a cell runs, so a sweep of planar cells loads no SITL code.
@@ -40,8 +42,12 @@ class Kind:
         fn = getattr(self._mod(), "resources", None)
         return fn(key) if fn else {}
 
-    def run(self, key: dict[str, Any]) -> dict[str, Any]:
-        return self._mod().run(key)
+    def inputs(self, key: dict[str, Any]) -> dict[str, Any]:
+        fn = getattr(self._mod(), "inputs", None)
+        return fn(key) if fn else {}
+
+    def run(self, key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
+        return self._mod().run(key, inputs or {})
 
 
 KINDS = {k.name: k for k in (

@@ -5,8 +5,10 @@ where they changed, and reference gains (another sweep's recorded recommendation
 
 Key: ``vehicle``, ``seed``; ``tune_args`` (a list: what `tune` gets besides the vehicle, e.g. ["--budget", "10"]),
 ``refly`` (flights of each set, default 3; 0: none), ``candidates`` (best-so-far sets re-flown, default 4),
-``refly_after`` (also the best flown gains after these flights), ``reference`` (a table: ``sweep`` and ``key``, the
-record of another sweep whose ``best_values`` are re-flown as "long"; or ``gains``, a table of parameter values),
+``refly_after`` (also the best flown gains after these flights), ``reference`` (gains re-flown as "long": a table
+``gains`` of parameter values, or the recorded ``best_values`` of a sweep's cell — ``sweep``, the values its key
+must have (``key``) and the names whose values must equal this cell's (``match``, e.g. ["vehicle",
+"sitl_params"]); resolved on the driver's machine, the newest such record),
 ``change_at`` / ``change_params`` (a SITL condition changed mid-campaign); the vehicle's own values (vehicles.py).
 
 Figures: flights (as the README counts them: the baseline is flight 1, every prior, re-flight and confirmation
@@ -44,19 +46,26 @@ def resources(key: dict[str, Any]) -> dict[str, float]:
     return {"sitl": 1} if is_sitl(key) else {}
 
 
-def reference_gains(ref: dict[str, Any]) -> dict[str, float]:
-    """The gains a ``reference`` table names: given, or the recorded ``best_values`` of another sweep's cell."""
+def reference_gains(key: dict[str, Any]) -> dict[str, float]:
+    """The gains the cell's ``reference`` names: given, or the newest recorded ``best_values`` of a sweep's cell
+    whose key has the ``key`` values and this cell's values of ``match``."""
+    ref = key["reference"]
     if "gains" in ref:
         return dict(ref["gains"])
     from ksbo_bench import sweep as sweeps
     from ksbo_bench.store import Store
 
     sw = sweeps.load(ref["sweep"])
-    want = sweeps.key_id(ref["key"])
-    for rec in Store(sw.store):
-        if sweeps.key_id(rec["key"]) == want and rec["result"].get("best_values"):
-            return rec["result"]["best_values"]
-    raise SweepError(f"reference: no record with best_values for {want} in {sw.store}")
+    want = {**{m: key.get(m) for m in ref.get("match", [])}, **ref.get("key", {})}
+    found = [r for r in Store(sw.store) if r["result"].get("best_values")
+             and all(r["key"].get(k) == v for k, v in want.items())]
+    if not found:
+        raise SweepError(f"reference: no record of {sw.name} with best_values and {json.dumps(want)}")
+    return found[-1]["result"]["best_values"]
+
+
+def inputs(key: dict[str, Any]) -> dict[str, Any]:
+    return {"reference": reference_gains(key)} if "reference" in key else {}
 
 
 def best_so_far(entries: list[dict], names: list[str]) -> list[tuple[int, dict[str, float], float]]:
@@ -78,8 +87,8 @@ def _tune(d: Path, conn: list[str], key: dict[str, Any]) -> subprocess.Completed
                           capture_output=True, text=True, timeout=float(key.get("timeout_s", 7200)))
 
 
-def run(key: dict[str, Any]) -> dict[str, Any]:
-    ref = reference_gains(key["reference"]) if "reference" in key else None
+def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
+    ref = (inputs or {}).get("reference")
     work = Path(tempfile.mkdtemp(prefix="ksbo-bench-campaign-"))
     d = work / "campaign"
     result: dict[str, Any] = {}

@@ -63,7 +63,7 @@ def refly(obj, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return P.mean(1), np.where(done.any(1), jq, np.nan), (~done).sum(1)
 
 
-def run(key: dict[str, Any]) -> dict[str, Any]:
+def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
     import ksbo_mav
     from ksbo_mav.jsonio import jsonable
     from ksbo_mav.profiles import load_profile

@@ -53,7 +53,7 @@ def _prior(obj, x0, bounds, n: int, seed: int, local: bool):
     return X, y
 
 
-def run(key: dict[str, Any]) -> dict[str, Any]:
+def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
     import ksbo_mav
     from ksbo_mav.campaign.config import profile_defaults
 

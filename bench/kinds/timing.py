@@ -96,7 +96,7 @@ def check(key: dict[str, Any]) -> None:
         raise SweepError(f"timing: what must be one of {', '.join(OPERATIONS)}, not {key['what']!r}")
 
 
-def run(key: dict[str, Any]) -> dict[str, Any]:
+def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
     fn, result = OPERATIONS[key["what"]](key)
     fn()  # warm-up: compiles, caches
     times = []

@@ -8,7 +8,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 BENCH = ROOT / "benchmarks"
 
-#: (section title, output under benchmarks/, extra text).
+#: (section title, output under benchmarks/, extra text; "linked": only linked from a list at the end).
 MARKDOWN_OUTPUTS: list[tuple[str, str, str]] = [
     ("MAVLink tuning campaign on the built-in vehicle", "mavlink-campaign/results.md", ""),
     ("A tune in one battery: flights to 90 %, copter figures re-flown", "short-campaign/results.md",
@@ -23,13 +23,16 @@ MARKDOWN_OUTPUTS: list[tuple[str, str, str]] = [
     ("A campaign through a radio-like link", "link-campaign/results.md",
      "Reading: [docs/links.md](docs/links.md), its sections on the radio end to end."),
     ("The same gains at 50, 20 and 10 Hz", "link-rates/results.md", "Reading: [docs/links.md](docs/links.md)."),
-    ("Kernel selection", "kernel-selection/results.md", ""),
-    ("Planar task landscape around a0", "landscape/results.md", ""),
-    ("Planar simulator", "simulator/results.md", ""),
-    ("JSBSim 3-D copter", "copter3d/results.md", ""),
-    ("MAVLink simulator", "mavlink-sim/results.md", ""),
-    ("Flight-log scoring", "log-scoring/results.md", ""),
-]
+] + [(title, rel, "linked") for title, rel in (
+    ("Kernel selection: speed, recovery of known orders, stability over priors", "kernel-selection/results.md"),
+    ("Planar task landscape around a0: best E[P] within a radius, risk on the way", "landscape/results.md"),
+    ("Planar simulator: speed, task statistics", "simulator/results.md"),
+    ("JSBSim 3-D copter: real-time factor, tracking against gains", "copter3d/results.md"),
+    ("MAVLink simulator: a figure-8 in lockstep, round trip per step", "mavlink-sim/results.md"),
+    ("Flight-log scoring: throughput and memory on a 500 MB log", "log-scoring/results.md"),
+    ("The first SITL campaigns (2026-11-30, the paper's method, no prior)", "sitl-campaign/results.md"),
+    ("An onboard trial", "onboard-trial/results.md"),
+)]
 
 
 def _blocks(text: str) -> list[str]:
@@ -79,4 +82,8 @@ def section(title: str, rel: str, extra: str = "") -> str:
 
 
 def sections() -> list[str]:
-    return [section(*row) for row in MARKDOWN_OUTPUTS]
+    """A section with the headline of each output, then one list of the outputs linked only."""
+    out = [section(*row) for row in MARKDOWN_OUTPUTS if row[2] != "linked"]
+    linked = [f"- {title}: [benchmarks/{rel}](benchmarks/{rel})" for title, rel, extra in MARKDOWN_OUTPUTS
+              if extra == "linked" and (BENCH / rel).is_file()]
+    return out + ["## More results\n\n" + "\n".join(linked)] if linked else out

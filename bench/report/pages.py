@@ -90,7 +90,7 @@ def page(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> str:
     if builder == "plants":
         from ksbo_bench.report.plants import flat, report
 
-        parts.append("## Every setting\n\n" + report([flat(r) for r in recs]))
+        parts.append("## Every setting\n\n" + report([flat(r) for r in recs], fly=False))
     return "\n\n".join(p for p in parts if p).rstrip() + "\n"
 
 

@@ -56,7 +56,7 @@ def climb_ends() -> dict[str, list[dict]]:
     return out
 
 
-def best_known(recs: list[dict]) -> dict[str, tuple[float, str]]:
+def best_known(recs: list[dict], fly: bool = True) -> dict[str, tuple[float, str]]:
     """Per plant: best re-flown E[P] over the runs in the file, the frozen tables' best (:func:`frozen_best`) and
     references flown here — the nominal oracle gains and the end points of the safe climbs (:func:`climb_ends`)
     (planar) or the baseline with the horizontal position P gain (and the velocity P gain) at the top of the search
@@ -68,7 +68,7 @@ def best_known(recs: list[dict]) -> dict[str, tuple[float, str]]:
     frozen = frozen_best()
     climbs_all = climb_ends()
     for plant in sorted({r["plant"] for r in recs}):
-        if plant in SITL_PLANTS:
+        if plant in SITL_PLANTS or not fly:  # fly=False: the records and the frozen tables only (a page's report)
             best[plant] = (-np.inf, "")
         elif plant in COPTER_PLANTS:
             obj = CopterObjective(plant)
@@ -115,8 +115,8 @@ def archived(tag: str) -> bool:
     return any(w in tag for w in ARCHIVED)
 
 
-def report(recs: list[dict]) -> str:
-    best = best_known(recs)
+def report(recs: list[dict], fly: bool = True) -> str:
+    best = best_known(recs, fly)
     keys = sorted({(r["tag"] or "", r["mode"], r["method"], r["n_prior"], r["budget"]) for r in recs},
                   key=lambda k: (archived(k[0]), k))
     lines = []
@@ -153,6 +153,17 @@ def report(recs: list[dict]) -> str:
         lines.append("")
     lines += paired_report(recs)
     if best:
-        lines += ["Best E[P] known per plant (how found; the frozen tables' values count too):", ""]
+        lines += ["Best E[P] known per plant (how found; the frozen tables' values count too"
+                  + ("" if fly else "; references flown by `python -m ksbo_bench.report.plants` are not") + "):", ""]
         lines += [f"- {p}: {v:.3f} ({how})" for p, (v, how) in best.items()]
     return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    import sys
+
+    from ksbo_bench import sweep as sweeps
+    from ksbo_bench.store import Store
+
+    names = sys.argv[1:] or ["plants-monitor", "plants-strict", "plants-paper", "plants-copter"]
+    print(report([flat(r) for n in names for r in Store(sweeps.load(n).store)]))
