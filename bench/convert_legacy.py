@@ -5,6 +5,9 @@ field maps; running it again rewrites the converted stores from the old files if
   plants-paper; the monitored runs (re-run by ksbo-bench) and every tagged run -> plants-history, its tag in the key.
 - benchmarks/campaign/{vehicle,paper}/*.json (bench_campaign.py) -> paper-comparison; benchmarks/campaign-tuning/
   vehicle/*.json -> paper-tuning.
+- benchmarks/short-campaign/runs.jsonl (bench_short_campaign.py) -> short-campaign: the wind as ``sitl_params``, a
+  reference given by label as a reference to that label's record on the same vehicle and condition, one given by
+  a campaign folder (long gone from /tmp) as the "long" record's; the old reference said in ``result``.
 
 A converted record has ``run.executor`` "converted" and ``run.code`` "before ksbo-bench"; its date is the machine
 line's where the old record had one; an old record without a machine line gets the one its last report named.
@@ -82,6 +85,39 @@ def paper_record(r: dict[str, Any], sweep: str, source: str) -> dict[str, Any]:
             "run": _run(None, source)}
 
 
+SPEED = {"ardupilot": 10.0, "px4": 5.0}
+
+
+def campaign_record(r: dict[str, Any]) -> dict[str, Any]:
+    key: dict[str, Any] = {"label": r.get("label", ""), "vehicle": r["stack"], "seed": r["seed"],
+                           "tune_args": r["tune_args"]}
+    if r.get("wind_mps"):
+        key["sitl_params"] = {"SIM_WIND_SPD": r["wind_mps"], "SIM_WIND_TURB": r["turb"]}
+    if r.get("speedup") and r["speedup"] != SPEED.get(r["stack"]):
+        key["speedup"] = r["speedup"]
+    if r.get("candidates_reflown") is not None and r["candidates_reflown"] != 4:
+        key["candidates"] = r["candidates_reflown"]
+    ref = r.get("reference") or ""
+    if ref.startswith("label ") or (ref and key["label"] in ("default", "try-orders-1")):  # today's long campaigns
+        label = ref[6:] if ref.startswith("label ") else "long"
+        key["reference"] = {"sweep": "short-campaign", "key": {"label": label}, "match": ["vehicle", "sitl_params"]}
+    elif ref:  # a long campaign of an earlier default, by its folder: said, not resolvable again
+        key["reference"] = {"campaign_dir": ref}
+    kinds = r.get("kinds", {})
+    result = {k: r[k] for k in ("rc", "rms_per_flight", "search_end", "candidates", "reflown", "best_values", "cut",
+                                "target_rms", "flights_to_90", "share_of_long", "error") if k in r}
+    result["reference_was"] = r.get("reference")
+    aborted = r.get("aborted", 0)  # the old count: aborted and crashed by the gains
+    return {"schema": SCHEMA, "sweep": "short-campaign", "kind": "campaign", "key": key,
+            "status": "ok" if r.get("rc") == 0 and "error" not in r else "failed",
+            "flights": {"total": r.get("flights"), **kinds,
+                        "reflown": sum(len(v) for v in r.get("reflown", {}).values())},
+            "safety": {"crashed": None, "aborted": aborted, "interrupted": r.get("interrupted", 0),
+                       "unsafe": r.get("unsafe")},
+            "result": result, "timing": {"wall_s": r.get("wall_s"), "campaign_s": r.get("wall_s")},
+            "run": _run(r.get("machine"), "benchmarks/short-campaign/runs.jsonl")}
+
+
 def _write(sweep: str, recs: list[dict[str, Any]]) -> None:
     st = Store(STORES / sweep)
     st.dir.mkdir(parents=True, exist_ok=True)
@@ -103,6 +139,9 @@ def main() -> None:
             for p in sorted((folder / setting).glob("*.json")):
                 out.setdefault(sweep, []).append(paper_record(json.loads(p.read_text()), sweep,
                                                               p.relative_to(BENCH.parent).as_posix()))
+    short = BENCH / "short-campaign" / "runs.jsonl"
+    if short.exists():
+        out["short-campaign"] = [campaign_record(json.loads(x)) for x in short.read_text().splitlines() if x.strip()]
     for sweep, recs in out.items():
         _write(sweep, recs)
 

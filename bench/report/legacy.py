@@ -11,8 +11,6 @@ BENCH = ROOT / "benchmarks"
 #: (section title, output under benchmarks/, extra text; "linked": only linked from a list at the end).
 MARKDOWN_OUTPUTS: list[tuple[str, str, str]] = [
     ("MAVLink tuning campaign on the built-in vehicle", "mavlink-campaign/results.md", ""),
-    ("A tune in one battery: flights to 90 %, copter figures re-flown", "short-campaign/results.md",
-     "Reading: [docs/optimizer.md](docs/optimizer.md), its section on the simulator prior."),
     ("Warm start from a finished campaign", "warm-start/results.md", ""),
     ("A vehicle that changes: drift, wind, the re-flights' cost", "drift/results.md",
      "Reading: [docs/optimizer.md](docs/optimizer.md), its section on a vehicle that changes."),
@@ -41,10 +39,10 @@ def _blocks(text: str) -> list[str]:
 
 
 #: A headline table's rows at most (the full output has the rest).
-MAX_ROWS = 8
+MAX_ROWS = 6
 
 
-def _cap(table: str, rows: int = MAX_ROWS) -> str:
+def cap(table: str, rows: int = MAX_ROWS) -> str:
     lines = table.splitlines()
     if len(lines) <= rows + 2:
         return table
@@ -66,7 +64,7 @@ def headline(path: Path, tables: int = 1) -> str:
         if block.lstrip().startswith("|"):
             if not seen and len(out) > 2:
                 out = [out[0], out[-1]]
-            out.append(_cap(block))
+            out.append(cap(block))
             seen += 1
             if seen == tables:
                 break

@@ -39,6 +39,8 @@ SECTIONS: list[tuple[str, tuple[str, ...], str]] = [
     ("Safe BO campaign: the paper's comparison", ("paper-comparison",),
      "Reading: [benchmarks/notes/safe-bo-campaign.md](benchmarks/notes/safe-bo-campaign.md)."),
     ("Safe BO in process on the JSBSim copter", ("plants-copter",), ""),
+    ("A tune in one battery: flights to 90 %, copter figures re-flown", ("short-campaign",),
+     "Reading: [docs/optimizer.md](docs/optimizer.md), its section on the simulator prior."),
     ("Speed", ("speed",), ""),
 ]
 
@@ -83,15 +85,33 @@ def tables(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
     return out
 
 
-def page(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> str:
-    parts = [f"# {sw.title}", sw.description.replace("\n", " ").strip(), provenance(sw, recs, PAGES),
-             *tables(sw, recs)]
+def blocks(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
+    """The page's body: the declared tables, then what the sweep's builder (``[report] builder``) adds."""
+    out = tables(sw, recs)
     builder = sw.report.get("builder")
     if builder == "plants":
         from ksbo_bench.report.plants import flat, report
 
-        parts.append("## Every setting\n\n" + report([flat(r) for r in recs], fly=False))
+        out += ["## Every setting", report([flat(r) for r in recs], fly=False)]
+    elif builder == "short-campaign":
+        from ksbo_bench.report.short_campaign import report
+
+        out.append(report(recs))
+    return [b.strip("\n") for text in out for b in text.split("\n\n") if b.strip()]
+
+
+def page(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> str:
+    parts = [f"# {sw.title}", sw.description.replace("\n", " ").strip(), provenance(sw, recs, PAGES),
+             *blocks(sw, recs)]
     return "\n\n".join(p for p in parts if p).rstrip() + "\n"
+
+
+def first_table(body: list[str]) -> list[str]:
+    """The first table of a page's body (at most legacy.MAX_ROWS rows) with the caption or prose just before it."""
+    for i, b in enumerate(body):
+        if b.lstrip().startswith("|"):
+            return ([body[i - 1]] if i and not body[i - 1].startswith("#") else []) + [legacy.cap(b)]
+    return []
 
 
 def _loaded() -> dict[str, tuple[sweeps.Sweep, list[dict[str, Any]]]]:
@@ -104,8 +124,7 @@ def section(title: str, names: tuple[str, ...], extra: str, loaded: dict) -> str
         sw, recs = loaded[name]
         if not recs:
             continue
-        first = tables(sw, recs)[:2]  # its caption and table
-        parts += [provenance(sw, recs, ROOT), *first, f"Full page: [benchmarks/pages/{name}.md]"
+        parts += [provenance(sw, recs, ROOT), *first_table(blocks(sw, recs)), f"Full page: [benchmarks/pages/{name}.md]"
                   f"(benchmarks/pages/{name}.md)."]
     return "\n\n".join([*parts, extra] if extra else parts)
 
@@ -116,6 +135,11 @@ def build() -> dict[Path, str]:
     out = {PAGES / f"{name}.md": page(sw, recs) for name, (sw, recs) in loaded.items() if recs}
     body = [HEADER.strip()] + [section(t, n, e, loaded) for t, n, e in SECTIONS
                                if any(loaded.get(x, (None, []))[1] for x in n)]
+    from ksbo_bench.report.early_stop import section as early_stop
+
+    if loaded.get("short-campaign", (None, []))[1]:
+        body.insert(1 + [t for t, _, _ in SECTIONS].index("A tune in one battery: flights to 90 %, copter figures "
+                                                           "re-flown") + 1, early_stop())
     body += legacy.sections()
     out[PAGE] = "\n\n".join(s.strip() for s in body) + "\n"
     return out
