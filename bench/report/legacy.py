@@ -51,7 +51,8 @@ def cap(table: str, rows: int = MAX_ROWS) -> str:
 
 def headline(path: Path, tables: int = 1) -> str:
     """The blocks of a Markdown output up to and including its first ``tables`` tables (each at most
-    :data:`MAX_ROWS` rows), the prose before the first table cut to its first paragraph and its last; headings
+    :data:`MAX_ROWS` rows), the prose before the first table cut to its first paragraph, the one naming the
+    machine and the last; headings
     (``#``) are dropped except ``###`` ones directly before a kept table, which become bold captions."""
     out: list[str] = []
     seen = 0
@@ -62,8 +63,8 @@ def headline(path: Path, tables: int = 1) -> str:
             out.append(f"**{block[4:].strip()}**")
             continue
         if block.lstrip().startswith("|"):
-            if not seen and len(out) > 2:
-                out = [out[0], out[-1]]
+            if not seen and len(out) > 2:  # the first paragraph, the machine's and the one before the table
+                out = [b for i, b in enumerate(out) if i in (0, len(out) - 1) or "Machine" in b]
             out.append(cap(block))
             seen += 1
             if seen == tables:
