@@ -43,7 +43,7 @@ N_CANDIDATES = 4
 def vehicle(a: argparse.Namespace):
     """(tune's connection arguments, Endpoint) of a fresh vehicle."""
     if a.stack in SPEED:
-        from bench_sitl_campaign import endpoint
+        from _bench_common import endpoint
 
         from ksbo_sim.sitl import start_sitl
 

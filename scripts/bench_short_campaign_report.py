@@ -8,7 +8,7 @@ import statistics
 from collections import defaultdict
 from pathlib import Path
 
-#: Labels the results page shows in a section of their own (scripts/_bench_early_stop.py: each seed's newest run).
+#: Labels the results page shows in a section of their own (ksbo_bench.report.early_stop: each seed's newest run).
 OWN_SECTION = ("early-stop",)
 VEHICLE = {"ardupilot": "ArduCopter SITL", "px4": "PX4 SITL", "copter3d": "JSBSim copter"}
 

@@ -5,7 +5,7 @@ A one-trial `ksbo-mav tune` campaign takes off and snapshots the defaults, then 
 some gains replaced, by index into the profile's gain vector) is flown ``--reps`` times through the tuner's own
 MavlinkObjective (same mission, monitor and restore), and the vehicle lands.
 
-    python scripts/bench_sitl_fixed_gains.py '{"base": {}, "xyp1.89": {"0": 1.89}}' --reps 2 [--speedup 5]
+    python scripts/diag/sitl_fixed_gains.py '{"base": {}, "xyp1.89": {"0": 1.89}}' --reps 2 [--speedup 5]
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ import tempfile
 from pathlib import Path
 
 os.environ.setdefault("MAVLINK20", "1")
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_sitl_campaign import campaign_vehicle, endpoint  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # scripts/: _bench_common
+from _bench_common import campaign_vehicle, endpoint  # noqa: E402
 
 from ksbo_sim.sitl import start_sitl  # noqa: E402
 
