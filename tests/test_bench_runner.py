@@ -148,3 +148,53 @@ def test_two_ray_nodes_on_this_machine_share_a_sweep_and_give_the_local_records(
         run(sw, LocalExecutor(jobs=2), Store(tmp_path / "local"), out=out)
     text, same = compare(tmp_path / "ray", tmp_path / "local")
     assert same and "6 cells in both, 0 differ" in text, text
+
+
+def test_an_infrastructure_failure_is_retried_and_gives_no_record(tmp_path):
+    """A SITL cell whose SITL cannot start on this node (its declared build is not here) fails for the
+    infrastructure: the runner runs it again --retries times, then names it and writes nothing."""
+    from ksbo_sim.sitl import SitlNotFound, find_run_script
+
+    try:
+        find_run_script("ardupilot")
+    except SitlNotFound as exc:
+        pytest.skip(str(exc))
+    p = tmp_path / "sitl.toml"
+    p.write_text('[sweep]\nkind = "campaign"\n[fixed]\nvehicle = "ardupilot"\nbuild = "no-such-build"\nseed = 0\n')
+    r = subprocess.run([sys.executable, "-m", "ksbo_bench", "run", str(p), "--store", str(tmp_path / "s"),
+                        "--retries", "1"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1, r.stderr
+    assert "1 to run (1 on a SITL)" in r.stderr and "NO RECORD after 2 attempt(s) (infrastructure" in r.stderr
+    assert "SITL build 'no-such-build' not found" in r.stderr and not (tmp_path / "s" / "records.jsonl").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.network
+def test_a_campaign_cell_flies_our_copter_and_re_flies_in_turn(tmp_path):
+    """A campaign cell on our JSBSim copter over MAVLink (lockstep): the campaign's flights counted as the README
+    counts them, the baseline, the recommendation and the best flown gains re-flown in turn, the given reference
+    re-flown as "long", the cut and the share of the reference's cut computed from the re-flights."""
+    sw = _sweep(tmp_path, """
+[sweep]
+kind = "campaign"
+[fixed]
+vehicle = "copter3d"
+tune_args = ["--budget", "2", "--prior", "none", "--validation", "off", "--no-onboard-guard", "--confirm", "1"]
+refly = 2
+candidates = 1
+seed = 0
+[fixed.reference.gains]
+PSC_NE_POS_P = 1.5
+""", "camp")
+    store = Store(tmp_path / "s")
+    with open(tmp_path / "log.txt", "w") as out:
+        summ = run(sw, LocalExecutor(), store, out=out)
+    assert summ.ran == 1, (tmp_path / "log.txt").read_text()
+    rec = store.records()[0]
+    assert rec["status"] == "ok" and rec["flights"]["total"] == 3 and rec["flights"]["opt"] == 2
+    assert rec["safety"] == {"crashed": 0, "aborted": 0, "interrupted": 0, "unsafe": 0}
+    reflown = rec["result"]["reflown"]
+    assert set(reflown) >= {"baseline", "rec", "long"} and all(len(v) == 2 for v in reflown.values())
+    m = {k: sum(v) / 2 for k, v in reflown.items()}
+    assert rec["result"]["cut"] == pytest.approx(1 - m["rec"] / m["baseline"])
+    assert rec["result"]["share_of_long"] == pytest.approx((m["baseline"] - m["rec"]) / (m["baseline"] - m["long"]))
