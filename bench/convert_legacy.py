@@ -2,7 +2,8 @@
 field maps; running it again rewrites the converted stores from the old files if they are still there).
 
 - benchmarks/plants/records.jsonl (bench_plants.py): today's strict runs -> plants-strict, the paper setting ->
-  plants-paper; the monitored runs (re-run by ksbo-bench) and every tagged run -> plants-history, its tag in the key.
+  plants-paper; the monitored runs (re-run by ksbo-bench) and every tagged run -> plants-history, its tag in the key;
+  benchmarks/plants/tuning.jsonl (the tuning seeds, 100 and up) -> plants-tuning, its tag in the key.
 - benchmarks/campaign/{vehicle,paper}/*.json (bench_campaign.py) -> paper-comparison; benchmarks/campaign-tuning/
   vehicle/*.json -> paper-tuning.
 - benchmarks/short-campaign/runs.jsonl (bench_short_campaign.py) -> short-campaign: the wind as ``sitl_params``, a
@@ -41,13 +42,16 @@ def _run(machine: str | None, source: str) -> dict[str, Any]:
             "attempts": 1, "source": source}
 
 
+FILES = {"plants-tuning": "tuning.jsonl"}
+
+
 def plant_record(r: dict[str, Any], sweep: str) -> dict[str, Any]:
     key = {k: r[k] for k in ("mode", "budget", "n_prior", "plant", "method", "seed")}
     if r.get("local_prior"):
         key["local_prior"] = True
     if r.get("options"):
         key["options"] = r["options"]
-    if sweep == "plants-history":
+    if sweep in ("plants-history", "plants-tuning"):
         key["tag"] = r.get("tag") or SUPERSEDED
     result = {k: r[k] for k in ("EP", "reflown_counts", "x", "orders", "reselection_changes", "stopped",
                                 "first_unsafe_at", "stop", "rms_ref", "rms_change", "best_flown_change", "sitl",
@@ -63,7 +67,7 @@ def plant_record(r: dict[str, Any], sweep: str) -> dict[str, Any]:
             "result": result,
             "timing": {"wall_s": r.get("wall_s"), "s_per_iter": r.get("s_per_iter"),
                        "s_per_iter_last20": r.get("s_per_iter_last20")},
-            "run": _run(r.get("machine"), "benchmarks/plants/records.jsonl")}
+            "run": _run(r.get("machine"), f"benchmarks/plants/{FILES.get(sweep, 'records.jsonl')}")}
 
 
 def plant_sweep(r: dict[str, Any]) -> str:
@@ -134,6 +138,10 @@ def main() -> None:
                 r = json.loads(line)
                 s = plant_sweep(r)
                 out.setdefault(s, []).append(plant_record(r, s))
+    tuning = BENCH / "plants" / "tuning.jsonl"
+    if tuning.exists():
+        out["plants-tuning"] = [plant_record(json.loads(x), "plants-tuning") for x in tuning.read_text().splitlines()
+                                if x.strip()]
     for folder, sweep in ((BENCH / "campaign", "paper-comparison"), (BENCH / "campaign-tuning", "paper-tuning")):
         for setting in ("vehicle", "paper"):
             for p in sorted((folder / setting).glob("*.json")):

@@ -93,6 +93,9 @@ def blocks(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
         from ksbo_bench.report.plants import flat, report
 
         out += ["## Every setting", report([flat(r) for r in recs], fly=False)]
+    elif builder == "paper":  # figures drawn by python -m ksbo_bench.report.paper_figures
+        out += [f"![{s}](../../docs/figures/campaign_{s}.png)" for s in ("vehicle", "paper", "trajectory")
+                if (ROOT / "docs" / "figures" / f"campaign_{s}.png").is_file()]
     elif builder == "short-campaign":
         from ksbo_bench.report.short_campaign import report
 
