@@ -87,6 +87,10 @@ class RayExecutor:
 
         self.start()
         try:
+            sitl = [c for c in cells if KINDS[c.kind].resources(c.key).get(SITL_RESOURCE)]
+            if sitl and not ray.cluster_resources().get(SITL_RESOURCE):
+                raise RuntimeError(f"{len(sitl)} SITL cells but no node declares SITL slots: start each node with "
+                                   "ray start --resources '{\"sitl\": N}' (or --sitl-slots N without --ray-address)")
             running = {self._submit(c, 1): (c, 1) for c in cells}
             while running:
                 done, _ = ray.wait(list(running), num_returns=1)
