@@ -6,12 +6,9 @@ from __future__ import annotations
 from contextlib import contextmanager
 
 import datetime as _dt
-import os
-import platform
-import re
-import subprocess
 from pathlib import Path
 
+from ksbo_bench.record import machine as _machine
 from ksbo_bench.kinds.independent_refly import changed_params, refly_in_turn  # noqa: E402,F401 - re-exported
 from ksbo_bench.kinds.vehicles import SPEED  # noqa: E402,F401 - re-exported
 
@@ -19,19 +16,9 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
 def machine() -> str:
-    """One line: CPU model, cores, Python and numpy versions, date (UTC)."""
-    cpu = platform.processor() or "unknown CPU"
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, timeout=10).stdout
-        m = re.search(r"Model name:\s*(.+)", out)
-        cpu = m.group(1).strip() if m else cpu
-    except (OSError, subprocess.SubprocessError):
-        pass
-    import numpy
-
+    """One line: CPU model, cores, Python and numpy versions (ksbo_bench's), date (UTC)."""
     date = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    return (f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, numpy {numpy.__version__}, "
-            f"{date}")
+    return f"{_machine()}, {date}"
 
 
 def write_result(name: str, body: str) -> Path:
