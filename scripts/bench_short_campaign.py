@@ -108,7 +108,7 @@ def run(a: argparse.Namespace) -> dict:
         rec["kinds"] = {k: sum(e["kind"] == k for e in entries) for k in sorted({e["kind"] for e in entries})}
         rec["rms_per_flight"] = [round(e["rms"], 4) if e.get("rms") else None for e in entries]
         rec["unsafe"] = sum(e["kind"] == "opt" and e["P"] < 0 for e in entries)
-        rec["aborted"] = sum(e["outcome"] in ("aborted", "crashed") for e in entries)  # by the gains
+        rec["aborted"] = sum(e["outcome"] in ("fence", "tilt", "track", "crash") for e in entries)  # by the gains
         rec["interrupted"] = sum(e["kind"] == "failed" for e in entries)  # the vehicle, link or computer
         cands = best_so_far(entries, names)[-a.candidates:] if a.candidates else []
         rec["candidates"] = [(k, round(rms, 4)) for k, _, rms in cands]

@@ -33,6 +33,8 @@ from ksbo_bench.kinds.vehicles import VEHICLES, change_at, fresh_vehicle, is_sit
 from ksbo_bench.cell_errors import SweepError
 
 N_CANDIDATES = 4
+#: Journal outcomes of a trial the monitor stopped because of the gains (a crash is counted apart).
+GAIN_ABORTS = ("fence", "tilt", "track")
 
 
 def check(key: dict[str, Any]) -> None:
@@ -108,8 +110,9 @@ def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, 
             return {"status": "failed", "result": {"error": err, "rc": r.returncode}, "timing": timing}
         entries = [json.loads(x) for x in journal.read_text().splitlines() if x.strip()]
         out = json.loads((d / "result.json").read_text()) if (d / "result.json").exists() else {}
-        safety = {"crashed": sum(e["outcome"] == "crashed" for e in entries),
-                  "aborted": sum(e["outcome"] == "aborted" for e in entries),
+        # the journal's outcomes (ksbo_mav.mav.outcome.TrialOutcome): crash; fence, tilt, track (the gains)
+        safety = {"crashed": sum(e["outcome"] == "crash" for e in entries),
+                  "aborted": sum(e["outcome"] in GAIN_ABORTS for e in entries),
                   "interrupted": sum(e["kind"] == "failed" for e in entries),
                   "unsafe": sum(e["kind"] == "opt" and e.get("P") is not None and e["P"] < 0 for e in entries)}
         kinds = {k: sum(e["kind"] == k for e in entries) for k in sorted({e["kind"] for e in entries})}
