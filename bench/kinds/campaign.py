@@ -9,7 +9,8 @@ Key: ``vehicle``, ``seed``; ``tune_args`` (a list: what `tune` gets besides the 
 ``gains`` of parameter values, or the recorded ``best_values`` of a sweep's cell — ``sweep``, the values its key
 must have (``key``) and the names whose values must equal this cell's (``match``, e.g. ["vehicle",
 "sitl_params"]); resolved on the driver's machine, the newest such record),
-``change_at`` / ``change_params`` (a SITL condition changed mid-campaign); the vehicle's own values (vehicles.py).
+``change_at`` / ``change_params`` (a SITL condition changed mid-campaign), ``keep`` (keep the working folder);
+the vehicle's own values (vehicles.py).
 
 Figures: flights (as the README counts them: the baseline is flight 1, every prior, re-flight and confirmation
 counts), the campaign's safety (aborted and crashed by the gains, interrupted by the vehicle or link, P < 0), every
@@ -20,6 +21,7 @@ reference's cut and the flight at which the best-so-far gains re-fly within 90 %
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -90,8 +92,23 @@ def _tune(d: Path, conn: list[str], key: dict[str, Any]) -> subprocess.Completed
 
 
 def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
-    ref = (inputs or {}).get("reference")
+    """The cell's record parts; its working folder (the campaign, its logs, the SITL's) is removed after a
+    campaign that ended normally, kept and named in ``result.kept`` otherwise (a few MB each: 1,000 cells would
+    fill a node's /tmp)."""
     work = Path(tempfile.mkdtemp(prefix="ksbo-bench-campaign-"))
+    try:
+        out = _run(key, (inputs or {}).get("reference"), work)
+    except BaseException:
+        print(f"campaign cell: its folder is kept: {work}", file=sys.stderr)
+        raise
+    if out["status"] == "ok" and not key.get("keep"):
+        shutil.rmtree(work, ignore_errors=True)
+    else:
+        out["result"]["kept"] = str(work)
+    return out
+
+
+def _run(key: dict[str, Any], ref: dict[str, float] | None, work: Path) -> dict[str, Any]:
     d = work / "campaign"
     result: dict[str, Any] = {}
     timing: dict[str, Any] = {}
