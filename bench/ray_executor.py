@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import socket
+import sys
 from typing import Any, Iterator
 
 from ksbo_bench.cell_errors import InfraError
@@ -23,6 +24,8 @@ from ksbo_bench.sweep import Cell
 
 #: The custom resource a SITL cell asks for: one per SITL that may run at once on a node.
 SITL_RESOURCE = "sitl"
+#: Tries at starting a local Ray instance: its raylet has 30 s to register, which a loaded machine can miss.
+START_TRIES = 3
 
 
 def _remote_cell(sweep: str, kind: str, key: dict[str, Any], attempt: int, inputs: dict[str, Any]) -> dict[str, Any]:
@@ -50,13 +53,21 @@ class RayExecutor:
             return
         # the workers get this process's environment on a local instance; BLAS threads pinned in every worker
         env = {"env_vars": {v: "1" for v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}}
-        if self.address:
-            ray.init(address=self.address, runtime_env=env, log_to_driver=False)
-        else:
-            ray.init(num_cpus=self.jobs or os.cpu_count(), resources={SITL_RESOURCE: self.sitl_slots},
-                     include_dashboard=False, object_store_memory=200 * 2**20, runtime_env=env,
-                     log_to_driver=False)
-            self._started = True
+        for attempt in range(1, START_TRIES + 1):
+            try:
+                if self.address:
+                    ray.init(address=self.address, runtime_env=env, log_to_driver=False)
+                else:
+                    ray.init(num_cpus=self.jobs or os.cpu_count(), resources={SITL_RESOURCE: self.sitl_slots},
+                             include_dashboard=False, object_store_memory=200 * 2**20, runtime_env=env,
+                             log_to_driver=False)
+                    self._started = True
+                return
+            except Exception as e:  # noqa: BLE001 - Ray raises a bare Exception when its raylet is slow to register
+                ray.shutdown()
+                if attempt == START_TRIES:
+                    raise RuntimeError(f"Ray did not start ({START_TRIES} tries): {e}") from None
+                print(f"Ray did not start ({e}); trying again", file=sys.stderr)
 
     def describe(self) -> str:
         import ray
