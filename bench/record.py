@@ -5,7 +5,7 @@
      "flights": {"total": 100, ...},          # the campaign's flights, counted as the README counts them
      "safety": {"crashed": 0, "aborted": 2, "interrupted": 0, "unsafe": 1},
      "result": {...},                         # the kind's figures: the re-flown E[P] or RMS, the recommendation
-     "timing": {"wall_s": 12.1, ...},         # seconds: differ from run to run, never compared
+     "timing": {"wall_s": 12.1, "load_1min": 0.4, ...},   # seconds and the machine's load at the end: never compared
      "run": {"code": "a229ed0", "dirty": false, "machine": "...", "node": "...", "executor": "local",
              "started": "2026-12-07T01:30:00Z", "attempts": 1}}
 
@@ -73,6 +73,7 @@ def make(cell, out: dict[str, Any], started: str, wall_s: float, executor: str, 
     code, dirty = code_version()
     return {"schema": SCHEMA, "sweep": cell.sweep, "kind": cell.kind, "key": cell.key,
             "status": out.get("status", "ok"), "flights": out.get("flights", {}), "safety": out.get("safety", {}),
-            "result": out.get("result", {}), "timing": {"wall_s": round(wall_s, 3), **out.get("timing", {})},
+            "result": out.get("result", {}),
+            "timing": {"wall_s": round(wall_s, 3), "load_1min": round(os.getloadavg()[0], 2), **out.get("timing", {})},
             "run": {"code": code, "dirty": dirty, "machine": machine(), "node": node or socket.gethostname(),
                     "executor": executor, "started": started, "attempts": attempts}}
