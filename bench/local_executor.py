@@ -13,6 +13,22 @@ from ksbo_bench.execute import pin_blas, run_cell
 from ksbo_bench.kinds import KINDS
 from ksbo_bench.sweep import Cell
 
+
+def _worker_init() -> None:
+    """A worker process: BLAS pinned; it ends with the driver (Linux: a parent-death signal), and SIGTERM unwinds
+    it like an exception, so a cell's SITL or simulator is stopped by its own ``finally``, never left running."""
+    import ctypes
+    import signal
+    import sys
+
+    pin_blas()
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the pool's own shutdown still ends the workers
+        pass
+
+
 Outcome = tuple[Cell, "dict[str, Any] | BaseException", int]
 
 
@@ -30,7 +46,7 @@ class LocalExecutor:
         queue = list(cells)
         running: dict[Future, tuple[Cell, int]] = {}
         ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: no thread or BLAS state inherited
-        with ProcessPoolExecutor(self.jobs, mp_context=ctx, initializer=pin_blas) as pool:
+        with ProcessPoolExecutor(self.jobs, mp_context=ctx, initializer=_worker_init) as pool:
             while queue or running:
                 sitl_busy = sum(1 for c, _ in running.values() if KINDS[c.kind].resources(c.key).get("sitl"))
                 for cell in list(queue):
