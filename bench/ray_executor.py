@@ -13,8 +13,10 @@ the cell's end.
 from __future__ import annotations
 
 import os
+import signal
 import socket
 import sys
+from pathlib import Path
 from typing import Any, Iterator
 
 from ksbo_bench.cell_errors import InfraError
@@ -24,8 +26,27 @@ from ksbo_bench.sweep import Cell
 
 #: The custom resource a SITL cell asks for: one per SITL that may run at once on a node.
 SITL_RESOURCE = "sitl"
-#: Tries at starting a local Ray instance: its raylet has 30 s to register, which a loaded machine can miss.
+#: Tries at starting a local Ray instance: its raylet has 30 s to register, and waits for the dashboard agent (a
+#: Python process) to write its ports first, which a loaded machine misses (measured here at load 21-42: every
+#: try of several runs, with or without Ray's daemons at a raised priority).
 START_TRIES = 3
+
+
+def _descendants(pid: int) -> list[int]:
+    """Every process below ``pid`` (Linux /proc)."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    out, todo = [], [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            out.append(c)
+            todo.append(c)
+    return out
 
 
 def _remote_cell(sweep: str, kind: str, key: dict[str, Any], attempt: int, inputs: dict[str, Any]) -> dict[str, Any]:
@@ -54,6 +75,7 @@ class RayExecutor:
         # the workers get this process's environment on a local instance; BLAS threads pinned in every worker
         env = {"env_vars": {v: "1" for v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}}
         for attempt in range(1, START_TRIES + 1):
+            before = set(_descendants(os.getpid()))
             try:
                 if self.address:
                     ray.init(address=self.address, runtime_env=env, log_to_driver=False)
@@ -65,6 +87,11 @@ class RayExecutor:
                 return
             except Exception as e:  # noqa: BLE001 - Ray raises a bare Exception when its raylet is slow to register
                 ray.shutdown()
+                for pid in set(_descendants(os.getpid())) - before:  # what the failed start left (ray.shutdown
+                    try:  # does not stop a node that never registered): its GCS, dashboard, monitors
+                        os.kill(pid, signal.SIGKILL)
+                    except OSError:
+                        pass
                 if attempt == START_TRIES:
                     raise RuntimeError(f"Ray did not start ({START_TRIES} tries): {e}") from None
                 print(f"Ray did not start ({e}); trying again", file=sys.stderr)
