@@ -1,8 +1,8 @@
 """The records of the benchmark scripts before ksbo-bench, converted once into the stores (kept to say how each old
 field maps; running it again rewrites the converted stores from the old files if they are still there).
 
-- benchmarks/plants/records.jsonl (bench_plants.py): today's strict runs -> plants-strict, the paper setting ->
-  plants-paper; the monitored runs (re-run by ksbo-bench) and every tagged run -> plants-history, its tag in the key;
+- benchmarks/plants/records.jsonl (bench_plants.py): today's monitored runs -> plants-monitor, the strict ones ->
+  plants-strict, the paper setting -> plants-paper; every tagged run -> plants-history, its tag in the key;
   benchmarks/plants/tuning.jsonl (the tuning seeds, 100 and up) -> plants-tuning, its tag in the key.
 - benchmarks/campaign/{vehicle,paper}/*.json (bench_campaign.py) -> paper-comparison; benchmarks/campaign-tuning/
   vehicle/*.json -> paper-tuning.
@@ -28,7 +28,6 @@ from ksbo_bench.store import Store
 from ksbo_bench.sweep import STORES
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
-SUPERSEDED = "(before 2026-12-07: flown again by ksbo-bench)"
 #: The machine of old records that name none: the one their last report named (runs not dated one by one).
 LAST_REPORT_MACHINE = "AMD EPYC, 2 cores, Python 3.11.7, numpy 2.4.6 (as the last report of these records named it)"
 
@@ -52,7 +51,7 @@ def plant_record(r: dict[str, Any], sweep: str) -> dict[str, Any]:
     if r.get("options"):
         key["options"] = r["options"]
     if sweep in ("plants-history", "plants-tuning"):
-        key["tag"] = r.get("tag") or SUPERSEDED
+        key["tag"] = r["tag"]
     result = {k: r[k] for k in ("EP", "reflown_counts", "x", "orders", "reselection_changes", "stopped",
                                 "first_unsafe_at", "stop", "rms_ref", "rms_change", "best_flown_change", "sitl",
                                 "error") if k in r}
@@ -71,8 +70,10 @@ def plant_record(r: dict[str, Any], sweep: str) -> dict[str, Any]:
 
 
 def plant_sweep(r: dict[str, Any]) -> str:
-    if r.get("tag") or r["mode"] == "monitor":
+    if r.get("tag"):
         return "plants-history"
+    if r["mode"] == "monitor":
+        return "plants-monitor"
     return "plants-strict" if r["n_prior"] == 0 else "plants-paper"
 
 
@@ -123,10 +124,13 @@ def campaign_record(r: dict[str, Any]) -> dict[str, Any]:
 
 
 def _write(sweep: str, recs: list[dict[str, Any]]) -> None:
+    """The converted records first, then those the runner wrote (kept: converting again changes only the
+    converted ones)."""
     st = Store(STORES / sweep)
+    own = [r for r in st if r.get("run", {}).get("executor") != "converted"]
     st.dir.mkdir(parents=True, exist_ok=True)
-    st.path.write_text("".join(json.dumps(r) + "\n" for r in recs))
-    print(f"{sweep}: {len(recs)} records -> {st.path}")
+    st.path.write_text("".join(json.dumps(r) + "\n" for r in recs + own))
+    print(f"{sweep}: {len(recs)} records converted, {len(own)} of the runner kept -> {st.path}")
 
 
 def main() -> None:
