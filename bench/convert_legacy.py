@@ -133,6 +133,13 @@ def _write(sweep: str, recs: list[dict[str, Any]]) -> None:
     print(f"{sweep}: {len(recs)} records converted, {len(own)} of the runner kept -> {st.path}")
 
 
+def fold_short_campaign(runs: Path = BENCH / "short-campaign" / "runs.jsonl") -> None:
+    """The runs of scripts/bench_short_campaign.py, converted into the short-campaign store (again: the store's
+    converted records are replaced, the runner's kept)."""
+    if runs.exists():
+        _write("short-campaign", [campaign_record(json.loads(x)) for x in runs.read_text().splitlines() if x.strip()])
+
+
 def main() -> None:
     out: dict[str, list[dict[str, Any]]] = {}
     plants = BENCH / "plants" / "records.jsonl"
@@ -151,11 +158,9 @@ def main() -> None:
             for p in sorted((folder / setting).glob("*.json")):
                 out.setdefault(sweep, []).append(paper_record(json.loads(p.read_text()), sweep,
                                                               p.relative_to(BENCH.parent).as_posix()))
-    short = BENCH / "short-campaign" / "runs.jsonl"
-    if short.exists():
-        out["short-campaign"] = [campaign_record(json.loads(x)) for x in short.read_text().splitlines() if x.strip()]
     for sweep, recs in out.items():
         _write(sweep, recs)
+    fold_short_campaign()
 
 
 if __name__ == "__main__":
