@@ -123,6 +123,79 @@ def campaign_record(r: dict[str, Any]) -> dict[str, Any]:
             "run": _run(r.get("machine"), "benchmarks/short-campaign/runs.jsonl")}
 
 
+def _verdicts(flights: list[dict[str, Any]], said: dict[str, str]) -> dict[str, Any]:
+    """The old run's validation flights as the campaign kind records them (ksbo_bench.kinds.campaign_figures)."""
+    from ksbo_mav.campaign.verdict import DECIDING, judge
+
+    pairs, counts = {}, {}
+    for m in dict.fromkeys(f["manoeuvre"] for f in flights):
+        mine = [f for f in flights if f["manoeuvre"] == m]
+        counts[m] = len(mine)
+        if any(f["outcome"] == "error" for f in mine):
+            continue  # not flown by the vehicle: in not_completed
+        metric = DECIDING.get(m, "")
+        sides = [[f for f in mine if (f["gains"] == "baseline") == b] for b in (True, False)]
+        j = judge(*([f["metrics"].get(metric) for f in s if f["outcome"] == "ok"] for s in sides),
+                  *(sum(f["outcome"] != "ok" for f in s) for s in sides))
+        pairs[m] = {"verdict": j.verdict, "metric": metric,
+                    "baseline": round(sum(j.base) / len(j.base), 4) if j.base else None,
+                    "candidate": round(sum(j.cand) / len(j.cand), 4) if j.cand else None,
+                    "spread": None if j.spread is None else round(j.spread, 4),
+                    "aborted": [j.base_aborted, j.cand_aborted], "said": said.get(m, "")}
+    overall = "worse" if any(p["verdict"] == "worse" for p in pairs.values()) else "better" if any(
+        p["verdict"] == "better" for p in pairs.values()) else "not measured"
+    return {"flights": counts, "pairs": [{"pair": "recommendation", "overall": overall, "manoeuvres": pairs}],
+            "not_completed": [{k: f[k] for k in ("manoeuvre", "gains", "outcome", "message")}
+                              for f in flights if f["outcome"] != "ok"]}
+
+
+def wind_records() -> list[dict[str, Any]]:
+    """The first PX4 main campaign in wind (benchmarks/px4-main-wind/runs.jsonl, scripts/bench_short_campaign.py)
+    and the wind-preflight lean records (benchmarks/wind-preflight/runs.jsonl, scripts/bench_wind_lean.py) ->
+    wind-campaigns, label "first": one record per campaign."""
+    camp = BENCH / "px4-main-wind" / "runs.jsonl"
+    lean = BENCH / "wind-preflight" / "runs.jsonl"
+    if not camp.exists() or not lean.exists():
+        return []
+    leans = {r["stack"]: r for r in map(json.loads, lean.read_text().splitlines())}
+    out = []
+
+    def preflight(r: dict[str, Any]) -> dict[str, Any]:
+        return {"drag": r["drag"], "decided": {k: v for k, v in r["decided"].items() if k != "text"},
+                "flown_scale": r["flown_scale"], "predicted_full_deg": r["predicted_full_deg"],
+                "predicted_flown_deg": r["predicted_flown_deg"], "baseline_leans_deg": r["baseline_leans_deg"]}
+
+    for r in map(json.loads, camp.read_text().splitlines()):
+        fl = r["flights"]
+        confirm = [f["rms_lap2_m"] for f in fl if f["kind"] == "confirm"]
+        result = {"rc": 2, "rms_per_flight": [f["rms_lap2_m"] for f in fl],
+                  "said": {"baseline_rms": fl[0]["rms_lap2_m"], "confirm_rms": confirm,
+                           "cut": round(1 - sum(confirm) / len(confirm) / fl[0]["rms_lap2_m"], 4)},
+                  "best_values": None, "validation": _verdicts(r["validation"], r["verdicts"]),
+                  "wind": {"set": {"mps": 5.0, "from_deg": 45.0}, "flights": len(fl),
+                           "inferred_mps": sorted(f["wind_inferred_mps"] for f in fl)[len(fl) // 2],
+                           "inferred_from_deg": 45, "sign_ok": True},
+                  "wind_preflight": preflight(leans["px4"]), "error": r["verdicts"]["auto_mission"][:300],
+                  "refly_note": "re-fly " + r["refly"].split(" (")[0]}
+        out.append({"schema": SCHEMA, "sweep": "wind-campaigns", "kind": "campaign",
+                    "key": {"label": "first", "vehicle": "px4", "build": "px4-main", "speedup": 1.0, "seed": 0,
+                            "tune_args": ["--wind", "5"], "sitl_params": {"SIH_WIND_N": 3.54, "SIH_WIND_E": 3.54},
+                            "candidates": 0},
+                    "status": "failed", "flights": {"total": len(fl), "opt": len(fl) - 1, "confirm": 1, "reflown": 0},
+                    "safety": {"crashed": 0, "aborted": 0, "interrupted": 0, "unsafe": 0},
+                    "result": result, "timing": {}, "run": _run(r["machine"], "benchmarks/px4-main-wind/runs.jsonl")})
+    a = leans["ardupilot"]
+    out.append({"schema": SCHEMA, "sweep": "wind-campaigns", "kind": "campaign",
+                "key": {"label": "first", "vehicle": "ardupilot", "speedup": 3.0, "seed": 0,
+                        "tune_args": ["--wind", "5", "--prior", "none", "--budget", "3", "--validation", "off"],
+                        "sitl_params": {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 45.0, "SIM_WIND_TURB": 0.0},
+                        "refly": 0},
+                "status": "ok", "flights": {}, "safety": {},
+                "result": {"wind_preflight": preflight(a), "refly_note": "lean only: the campaign not recorded"},
+                "timing": {}, "run": _run(a["machine"], "benchmarks/wind-preflight/runs.jsonl")})
+    return out
+
+
 def _write(sweep: str, recs: list[dict[str, Any]]) -> None:
     """The converted records first, then those the runner wrote (kept: converting again changes only the
     converted ones)."""
@@ -158,6 +231,9 @@ def main() -> None:
             for p in sorted((folder / setting).glob("*.json")):
                 out.setdefault(sweep, []).append(paper_record(json.loads(p.read_text()), sweep,
                                                               p.relative_to(BENCH.parent).as_posix()))
+    wind = wind_records()
+    if wind:
+        out["wind-campaigns"] = wind
     for sweep, recs in out.items():
         _write(sweep, recs)
     fold_short_campaign()

@@ -15,7 +15,9 @@ the vehicle's own values (vehicles.py).
 Figures: flights (as the README counts them: the baseline is flight 1, every prior, re-flight and confirmation
 counts), the campaign's safety (aborted and crashed by the gains, interrupted by the vehicle or link, P < 0), every
 flight's lap-2 RMS, the re-flown RMS of each set, the cut (1 − R / B) and, with a reference, the share of the
-reference's cut and the flight at which the best-so-far gains re-fly within 90 % of it.
+reference's cut and the flight at which the best-so-far gains re-fly within 90 % of it; the validation verdicts,
+the wind set against the wind inferred, and with ``--wind`` the decision before takeoff
+(ksbo_bench.kinds.campaign_figures).
 """
 
 from __future__ import annotations
@@ -137,6 +139,7 @@ def _run(key: dict[str, Any], ref: dict[str, float] | None, work: Path) -> dict[
                       search_end=out.get("search_end"))
         if r.returncode != 0:
             result["error"] = (r.stderr.strip().splitlines() or ["?"])[-1][:300]
+        _more_figures(result, d, key, entries)
         best = out.get("best")
         if best and key.get("refly", 3):
             names = list(best["values"])
@@ -161,6 +164,18 @@ def _run(key: dict[str, Any], ref: dict[str, float] | None, work: Path) -> dict[
     flights = {"total": len(entries), **kinds, "reflown": sum(len(v) for v in result.get("reflown", {}).values())}
     return {"status": "ok" if r.returncode == 0 else "failed", "flights": flights, "safety": safety,
             "result": result, "timing": timing}
+
+
+def _more_figures(result: dict[str, Any], d: Path, key: dict[str, Any], entries: list[dict]) -> None:
+    """Validation verdicts, the wind check and the wind decision (ksbo_bench.kinds.campaign_figures); a figure
+    that cannot be read is said in the record, the campaign's own figures are kept."""
+    from ksbo_bench.kinds import campaign_figures
+    from ksbo_mav.errors import InputError
+
+    try:
+        result.update(campaign_figures.record(d, key, entries))
+    except (OSError, ValueError, KeyError, TypeError, InputError) as exc:
+        result["figures_error"] = f"{type(exc).__name__}: {exc}"[:300]
 
 
 def _figures(result: dict[str, Any], cands: list, n_flights: int) -> None:

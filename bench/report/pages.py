@@ -104,6 +104,10 @@ def blocks(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
         from ksbo_bench.report.short_campaign import report
 
         out.append(report(recs))
+    elif builder == "wind":
+        from ksbo_bench.report.wind_campaigns import report
+
+        out.append(report(recs))
     return [b.strip("\n") for text in out for b in text.split("\n\n") if b.strip()]
 
 
