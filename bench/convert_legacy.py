@@ -124,7 +124,7 @@ def campaign_record(r: dict[str, Any]) -> dict[str, Any]:
 
 
 def _verdicts(flights: list[dict[str, Any]], said: dict[str, str]) -> dict[str, Any]:
-    """The old run's validation flights as the campaign kind records them (ksbo_bench.kinds.campaign_figures)."""
+    """The old run's validation flights as the campaign kind records them (ksbo_bench.kinds.campaign_wind)."""
     from ksbo_mav.campaign.verdict import DECIDING, judge
 
     pairs, counts = {}, {}

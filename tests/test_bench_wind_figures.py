@@ -1,4 +1,4 @@
-"""What a campaign cell records from its folder besides the re-flown RMS (ksbo_bench.kinds.campaign_figures): the
+"""What a campaign cell records from its folder besides the re-flown RMS (ksbo_bench.kinds.campaign_wind): the
 wind's direction from either stack's SITL parameters, a flipped sign noticed, the cut the campaign said, the
 validation verdicts read from a validation journal, and the wind-campaigns page built from such records."""
 
@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import json
 
-from ksbo_bench.kinds import campaign_figures as cf
+from ksbo_bench.kinds import campaign_wind as cf
 from ksbo_bench.report.wind_campaigns import report
 
 from ksbo_mav.campaign.validation_log import ValidationEntry

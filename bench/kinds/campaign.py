@@ -17,7 +17,7 @@ counts), the campaign's safety (aborted and crashed by the gains, interrupted by
 flight's lap-2 RMS, the re-flown RMS of each set, the cut (1 − R / B) and, with a reference, the share of the
 reference's cut and the flight at which the best-so-far gains re-fly within 90 % of it; the validation verdicts,
 the wind set against the wind inferred, and with ``--wind`` the decision before takeoff
-(ksbo_bench.kinds.campaign_figures).
+(ksbo_bench.kinds.campaign_wind).
 """
 
 from __future__ import annotations
@@ -167,13 +167,13 @@ def _run(key: dict[str, Any], ref: dict[str, float] | None, work: Path) -> dict[
 
 
 def _more_figures(result: dict[str, Any], d: Path, key: dict[str, Any], entries: list[dict]) -> None:
-    """Validation verdicts, the wind check and the wind decision (ksbo_bench.kinds.campaign_figures); a figure
+    """Validation verdicts, the wind check and the wind decision (ksbo_bench.kinds.campaign_wind); a figure
     that cannot be read is said in the record, the campaign's own figures are kept."""
-    from ksbo_bench.kinds import campaign_figures
+    from ksbo_bench.kinds import campaign_wind
     from ksbo_mav.errors import InputError
 
     try:
-        result.update(campaign_figures.record(d, key, entries))
+        result.update(campaign_wind.record(d, key, entries))
     except (OSError, ValueError, KeyError, TypeError, InputError) as exc:
         result["figures_error"] = f"{type(exc).__name__}: {exc}"[:300]
 
