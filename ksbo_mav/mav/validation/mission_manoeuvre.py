@@ -5,7 +5,10 @@ whatever the outcome, once the vehicle is back in guided/offboard or left to the
 up with the mission protocol (:mod:`ksbo_mav.mav.mission_transfer`), the vehicle switches to its auto mode and flies
 them; the flight ends when the vehicle reports the last item reached (MISSION_ITEM_REACHED) or is within
 ``arrive_m`` of it, plus ``settle_s`` to see it stop. PX4 switches to Hold (AUTO.LOITER) by itself once its mission
-is finished: from the last item's report on, that mode is no take-over. Cross-track, corner and completion figures are
+is finished: from the last item's report on, that mode is no take-over. PX4's waypoints carry their own acceptance
+radius (:func:`px4_accept_m`): PX4 main no longer sets a multicopter's ``NAV_ACC_RAD`` to 2 m, and its 10 m default
+is wider than the legs, so every item counted as reached the moment the mission started (measured: "Mission
+finished, loitering" 48 ms after "Executing Mission"). Cross-track, corner and completion figures are
 :func:`ksbo_task.manoeuvre_metrics.mission_tracking` of the position samples against the straight legs.
 """
 
@@ -18,6 +21,17 @@ from ksbo_mav.mav.mission_transfer import MissionTransfer
 from ksbo_mav.mav.validation.manoeuvre_frame import ManoeuvreFrame
 from ksbo_mav.mav.validation.manoeuvre_recorder import cfg_text, end_text, go_text, start_text, wp_text
 from ksbo_mav.mav.validation.manoeuvre_spec import ManoeuvreSpec
+
+
+#: PX4's multicopter acceptance radius up to 1.16 (rc.mc_defaults ``NAV_ACC_RAD 2``), sent with each waypoint.
+PX4_ACCEPT_M = 2.0
+
+
+def px4_accept_m(wps: np.ndarray) -> float:
+    """The acceptance radius PX4's waypoints carry: :data:`PX4_ACCEPT_M`, or a quarter of the shortest leg when
+    that is smaller (most of every leg flown: the corner figures measure the position loop, not the switch)."""
+    legs = np.linalg.norm(np.diff(np.asarray(wps, float), axis=0), axis=1)
+    return float(min(PX4_ACCEPT_M, legs[legs > 0].min() / 4.0))
 
 
 def fly_auto_mission(frame: ManoeuvreFrame, spec: ManoeuvreSpec, start: np.ndarray, label: str, detail: dict) -> None:
@@ -38,7 +52,9 @@ def fly_auto_mission(frame: ManoeuvreFrame, spec: ManoeuvreSpec, start: np.ndarr
     geo = transfer.global_frame()
     px4 = v.stack.name == "px4"
     items = [] if px4 else [geo.home_item()]  # ArduPilot numbering: item 0 is home
-    items += [geo.waypoint(p, yaw=float("nan") if px4 else 0.0) for p in wps[1:]]
+    accept = px4_accept_m(wps) if px4 else 0.0  # ArduPilot: its own WPNAV_RADIUS, as verified
+    items += [geo.waypoint(p, yaw=float("nan") if px4 else 0.0, accept_m=accept) for p in wps[1:]]
+    detail["accept_m"] = accept
     transfer.upload(items)
     first = 0 if px4 else 1
     last = len(items) - 1
