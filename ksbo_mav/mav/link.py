@@ -160,7 +160,8 @@ class Link:
         self.last_heartbeat: Any = None
         self.last_heartbeat_wall = 0.0
         self._next_own_heartbeat = 0.0
-        #: The last :meth:`pump` stopped at its ``limit``: messages may still wait (this computer is behind).
+        #: The last :meth:`pump` stopped at its ``limit``: messages may still wait (this computer is behind the
+        #: vehicle: a loaded machine, a stall) until a pump finds none left.
         self.behind = False
         self.closed = False
         self.conn.message_hooks.append(self._on_message)
@@ -212,13 +213,9 @@ class Link:
             and msg.get_srcComponent() == self.target_component
 
     def pump(self, timeout: float = 0.0, limit: int | None = None) -> int:
-        """Receive and dispatch what is available, waiting up to ``timeout`` s for the first message; at most
-        ``limit`` messages (None: until none is left). Returns the number of messages handled: ``limit`` means
-        more may be waiting (:attr:`behind`).
-
-        A computer that fell behind the vehicle (a loaded machine, a stall) finds a backlog here; while it works
-        through it the idle hooks still run every :data:`IDLE_EVERY` messages, so a setpoint stream the vehicle
-        needs (PX4's OFFBOARD) never waits for the whole backlog."""
+        """Receive and dispatch what is available (at most ``limit`` messages), waiting up to ``timeout`` s for the
+        first one; returns how many. Behind the vehicle (:attr:`behind`) the idle hooks still run every
+        :data:`IDLE_EVERY` messages: a setpoint stream PX4 needs never waits for the whole backlog."""
         self._idle()
         count = 0
         deadline = time.monotonic() + timeout
