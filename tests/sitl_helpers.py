@@ -33,8 +33,12 @@ def endpoint(sitl, port: int | None = None) -> Endpoint:
 
 
 def read_all(sitl, profile: str) -> tuple[dict[str, float], bool]:
-    """Every parameter of the vehicle (fresh download on a second connection) and whether it is armed."""
-    v = Vehicle.connect(endpoint(sitl), profile, sysid=250, compid=190)
+    """Every parameter of the vehicle (fresh download on a second connection) and whether it is armed.
+
+    By the PARAM protocol: ArduPilot's MAVLink FTP answers on another port only while the client of the port that
+    used it first is still connected (its FTP thread waits on that port's send buffer), so a second port's FTP
+    request after a campaign on the first waits ~11 s for nothing before the tool falls back to it anyway."""
+    v = Vehicle.connect(endpoint(sitl), profile, sysid=250, compid=190, param_ftp=False)
     try:
         hb = v.link.wait_heartbeat(5.0)
         return {n: p.value for n, p in v.params.table.items()}, bool(hb.base_mode & 128)
