@@ -63,6 +63,21 @@ def trials(campaign: Path) -> list[dict]:
     return [json.loads(p.read_text()) for p in sorted((campaign / "trials").glob("trial_*.json"))]
 
 
+#: Outcomes of a trial this computer spoiled, not the gains ("client": its setpoints went out late by the vehicle's
+#: clock; "telemetry": the lap could not be measured): the campaign flies it again (TrialOutcome.retry).
+SPOILED = ("client", "telemetry")
+
+
+def counted_trials(campaign: Path) -> list[dict]:
+    """The trials the campaign counted. A loaded machine may spoil one now and then: those are flown again and must
+    be nothing but SPOILED ones, the same gains flown next."""
+    recs = trials(campaign)
+    for i, r in enumerate(recs):
+        if r["outcome"] in SPOILED:
+            assert i + 1 < len(recs) and recs[i + 1]["gains"] == r["gains"], (r["outcome"], r["message"])
+    return [r for r in recs if r["outcome"] not in SPOILED]
+
+
 def accept_then_restore(sitl, d: Path, summary: dict, profile: str, port_args: list[str]) -> None:
     """`ksbo-mav accept` leaves the best gains on the vehicle; `ksbo-mav restore` brings back the snapshot (every
     parameter, autopilot-updated ones aside)."""
