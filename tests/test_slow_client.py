@@ -59,8 +59,9 @@ def test_a_tuner_behind_its_telemetry_keeps_its_setpoints_going_and_counts_them_
           f"{sum(x > LATE_MS for x in lag)} later than {LATE_MS:g} ms; {len(held) + 1} hold targets: longest pause "
           f"{held.max():.3f} s")
     assert len(streamed) == n and len(lag) == n + 1  # none skipped
-    # Behind for two seconds: a pause of ~8 messages at most (0.1 s), never the backlog's length.
-    assert streamed.max() < 0.3 and held.max() < 0.3, (streamed.max(), held.max())
+    # Behind for two seconds: a pause of ~10 messages (0.12 s) and what the machine adds (0.31 s measured at a load
+    # of 24 on 2 cores), never the backlog's length (2.0-2.1 s before the stream went on between its messages).
+    assert streamed.max() < SLOW_S / 3 and held.max() < SLOW_S / 3, (streamed.max(), held.max())
     # The backlog grew to some 0.5 s and more: the setpoints that went out while it was read are counted that late
     # once it is read, though each went out as soon as the stamps read so far showed it due.
     assert max(lag) > 300 and sum(x > LATE_MS for x in lag) > 20, (max(lag), lag[::10])
