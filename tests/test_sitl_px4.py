@@ -12,7 +12,8 @@ import pytest
 
 from sitl_helpers import accept_then_restore, counted_trials, param_diff, read_all, short_campaign, tool
 
-pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
+# solo: the tuner keeps up with a 5x PX4 (its OFFBOARD stream) only with the two cores to itself and the SITL
+pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.solo, pytest.mark.timeout(600)]
 PROFILE = "px4-copter"
 
 
