@@ -89,6 +89,36 @@ def tables(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
     return out
 
 
+def _evaluation(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
+    """Each evaluation's own part (its module's ``report``), in the order the sweep declares them."""
+    from ksbo_bench.kinds.evaluation import module
+
+    out = []
+    for what in dict.fromkeys(r["key"]["what"] for r in recs):
+        fn = getattr(module(what), "report", None)
+        if fn:
+            out.append(fn([r for r in recs if r["key"]["what"] == what]))
+    return out
+
+
+def _builders() -> dict[str, Any]:
+    from ksbo_bench.report import campaign_pages, flight_pages, realtime
+
+    return {"warm-start": campaign_pages.warm_start, "drift": campaign_pages.drift,
+            "link-campaign": campaign_pages.link_campaign, "mavlink-campaign": campaign_pages.mavlink_campaign,
+            "realtime": realtime.report, "flights": flight_pages.report, "evaluation": _evaluation}
+
+
+def archived(sw: sweeps.Sweep, where: Path) -> str:
+    """The line naming the earlier outputs this sweep's page replaces, kept as history (``[report] archive``)."""
+    files = [ROOT / a for a in sw.report.get("archive", [])]
+    if not files:
+        return ""
+    return ("Kept as history (the output of the script this sweep replaced, measured with the code of its day; its "
+            "numbers are not these records'): " + ", ".join(f"[{_rel(f, ROOT)}]({_rel(f, where)})" for f in files)
+            + ".")
+
+
 def blocks(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
     """The page's body: the declared tables, then what the sweep's builder (``[report] builder``) adds."""
     out = tables(sw, recs)
@@ -104,12 +134,14 @@ def blocks(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
         from ksbo_bench.report.short_campaign import report
 
         out.append(report(recs))
+    elif builder:
+        out += _builders()[builder](sw, recs)
     return [b.strip("\n") for text in out for b in text.split("\n\n") if b.strip()]
 
 
 def page(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> str:
     parts = [f"# {sw.title}", sw.description.replace("\n", " ").strip(), provenance(sw, recs, PAGES),
-             *blocks(sw, recs)]
+             *blocks(sw, recs), archived(sw, PAGES)]
     return "\n\n".join(p for p in parts if p).rstrip() + "\n"
 
 

@@ -10,7 +10,7 @@ unless asked. Before the pattern it flies to the start on a position-only target
 out). The score: lap-2 3-D RMS of the measured position minus the pattern's position at each sample's own stamp,
 the same lap as the tuner's (stamps in ((lo + 0.5) dt, (hi + 0.5) dt] after t0), printed as one JSON line.
 
-    python scripts/figure8_client.py --tcp 127.0.0.1:5772 [--lead-ms 0] [--no-feed-forward] [--every N]
+    python -m ksbo_bench.figure8_client --tcp 127.0.0.1:5772 [--lead-ms 0] [--no-feed-forward] [--every N]
 
 Nothing here watches the vehicle's safety: it is a SITL measurement tool, not a way to fly a real vehicle.
 """
