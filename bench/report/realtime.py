@@ -49,7 +49,6 @@ def _sensors(r: dict) -> str:
 
 
 def report(sw, recs: list[dict[str, Any]]) -> list[str]:
-    recs = sorted(recs, key=lambda r: (r["key"]["vehicle"], str(r["key"].get("label", "")).startswith("was-")))
     rows = ["| stack | configuration | training figure-8 | flights to result (optimiser + confirm) | search end | "
             "lap-2 RMS baseline → recommendation (m) | setpoints late: max (ms), share | LOCAL_POSITION_NED min (Hz) | "
             "interrupted / aborted / P<0 / crashed | validation flights (wall s) | verdict of the recommendation |",
