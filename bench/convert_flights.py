@@ -6,8 +6,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from ksbo_bench.convert_legacy import BENCH
-from ksbo_bench.convert_outputs import _lines, _rec
+from ksbo_bench.convert_legacy import BENCH, _lines, _rec
 
 NAMES = ("PSC_POSXY_P", "PSC_VELXY_P", "PSC_VELXY_I", "PSC_VELXY_D", "PSC_POSZ_P", "PSC_VELZ_P")
 

@@ -14,25 +14,12 @@ schema go into ``result`` under their old names; ``run`` says "converted", the o
 from __future__ import annotations
 
 import json
-from typing import Any, Iterator
+from typing import Any
 
-from ksbo_bench.convert_legacy import BENCH, _run, _write
-from ksbo_bench.record import SCHEMA
+from ksbo_bench.convert_legacy import BENCH, _lines, _rec, _write
 
 RADIO = "down=4000,up=2000,queue=1024,loss=0.05,latency=0.02,seed=1,radio=1"
 WARM_REF = {"sweep": "warm-start", "key": {"label": "earlier"}, "match": ["vehicle"]}
-
-
-def _lines(rel: str) -> Iterator[dict[str, Any]]:
-    p = BENCH / rel
-    if p.exists():
-        yield from (json.loads(x) for x in p.read_text().splitlines() if x.strip())
-
-
-def _rec(sweep: str, kind: str, key: dict, result: dict, source: str, machine: str | None, *, status: str = "ok",
-         flights: dict | None = None, safety: dict | None = None, timing: dict | None = None) -> dict[str, Any]:
-    return {"schema": SCHEMA, "sweep": sweep, "kind": kind, "key": key, "status": status, "flights": flights or {},
-            "safety": safety or {}, "result": result, "timing": timing or {}, "run": _run(machine, source)}
 
 
 def warm_start() -> list[dict[str, Any]]:

@@ -28,8 +28,9 @@ def headline(rec: dict[str, Any]) -> str:
     """A record's figures for the progress line."""
     r, s = rec.get("result", {}), rec.get("safety", {})
     bits = [f"{k} {r[k]:+.3f}" for k in ("EP", "cut", "share_of_long") if isinstance(r.get(k), (int, float))]
-    if isinstance(r.get("seconds"), (int, float)):
-        bits.append(f"{r['seconds'] * 1e3:.3g} ms")
+    secs = rec.get("timing", {}).get("seconds") if rec.get("kind") == "timing" else r.get("seconds")
+    if isinstance(secs, (int, float)):
+        bits.append(f"{secs * 1e3:.3g} ms")
     bits += [f"{k} {s[k]}" for k in ("crashed", "aborted", "interrupted", "unsafe") if s.get(k)]
     if rec.get("status") != "ok":
         bits.insert(0, rec.get("status", "?").upper())

@@ -61,7 +61,7 @@ KINDS = {k.name: k for k in (
     Kind("flights", "ksbo_bench.kinds.flights", ("vehicle", "ways"),
          "fixed gain sets flown several ways on one fresh SITL, in turn: streamed, on board, by a separate client, "
          "the validation manoeuvres"),
-    Kind("evaluation", "ksbo_bench.kinds.evaluation", ("what",),
+    Kind("evaluation", "ksbo_bench.kinds.evaluate", ("what",),
          "one deterministic computation that is not a campaign (ksbo_bench.evaluations)"),
     Kind("timing", "ksbo_bench.kinds.timing", ("what",),
          "a pure timing: seconds of one named operation, best of repeats"),

@@ -26,10 +26,8 @@ to swap) is a result with status "stopped".
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -38,6 +36,7 @@ from ksbo_bench.cell_errors import InfraError, NotYet, SweepError
 from ksbo_bench.kinds import campaign_analyses
 from ksbo_bench.kinds.campaign_figures import best_so_far, console_figures, reached_at, refly_figures
 from ksbo_bench.kinds.independent_refly import changed_params, refly_in_turn
+from ksbo_bench.kinds.work_folder import in_work_folder
 from ksbo_bench.kinds.vehicles import OURS, VEHICLES, change_at, fresh_vehicle, is_sitl
 
 __all__ = ["best_so_far", "check", "inputs", "resources", "run"]
@@ -102,20 +101,9 @@ def _tune(d: Path, conn: list[str], key: dict[str, Any], extra: list[str]) -> su
 
 
 def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The cell's record parts; its working folder (the campaign, its logs, the SITL's) is removed after a
-    campaign that ended normally, kept and named in ``result.kept`` otherwise (a few MB each: 1,000 cells would
-    fill a node's /tmp)."""
-    work = Path(tempfile.mkdtemp(prefix="ksbo-bench-campaign-"))
-    try:
-        out = _run(key, inputs or {}, work)
-    except BaseException:
-        print(f"campaign cell: its folder is kept: {work}", file=sys.stderr)
-        raise
-    if out["status"] != "failed" and not key.get("keep"):
-        shutil.rmtree(work, ignore_errors=True)
-    else:
-        out["result"]["kept"] = str(work)
-    return out
+    """The cell's record parts; its working folder is removed after a campaign that ended normally (or stopped by
+    the tool's own rule), kept and named in ``result.kept`` otherwise (ksbo_bench.kinds.work_folder)."""
+    return in_work_folder("campaign", _run, key, inputs)
 
 
 def _earlier(work: Path, files: dict[str, str] | None) -> list[str]:

@@ -20,14 +20,13 @@ manoeuvre's metrics), the mission rate flown, the gains of each set.
 
 from __future__ import annotations
 
-import shutil
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
 from ksbo_bench.cell_errors import SweepError
 from ksbo_bench.kinds import flight_ways
+from ksbo_bench.kinds.work_folder import in_work_folder
 from ksbo_bench.kinds.vehicles import SITL_KINDS, fresh_vehicle, is_sitl
 
 PROFILE = {"ardupilot": "ardupilot-copter", "px4": "px4-copter"}
@@ -67,14 +66,7 @@ def inputs(key: dict[str, Any]) -> dict[str, Any]:
 
 
 def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
-    work = Path(tempfile.mkdtemp(prefix="ksbo-bench-flights-"))
-    try:
-        out = _run(key, inputs or {}, work)
-    except BaseException:
-        print(f"flights cell: its folder is kept: {work}", file=sys.stderr)
-        raise
-    shutil.rmtree(work, ignore_errors=True)
-    return out
+    return in_work_folder("flights", _run, key, inputs)
 
 
 def _run(key: dict[str, Any], inp: dict[str, Any], work: Path) -> dict[str, Any]:

@@ -51,6 +51,11 @@ def _median_range(vs: list[Any], fmt: str = "{:.3f}") -> str:
     return s + (f", {missing} none" if missing else "")
 
 
+def _seconds(v: float) -> str:
+    """A duration: ms below a second, else s (3 significant digits)."""
+    return f"{v * 1e3:.3g} ms" if v < 1 else f"{v:.3g} s"
+
+
 SUMMARIES: dict[str, Callable[[list[Any]], str]] = {
     "median-range": _median_range,
     "pct-median-range": lambda vs: _median_range([None if x is None else 100 * x for x in vs], "{:+.0f} %"),
@@ -59,7 +64,7 @@ SUMMARIES: dict[str, Callable[[list[Any]], str]] = {
     "zero-share": lambda vs: f"{sum(1 for x in vs if x == 0)}/{len(vs)}",
     "sum": lambda vs: f"{sum(_nums(vs)):g}",
     "n": lambda vs: f"{len(vs)}",
-    "min-ms": lambda vs: f"{min(_nums(vs)) * 1e3:.3g} ms" if _nums(vs) else "–",
+    "min-ms": lambda vs: _seconds(min(_nums(vs))) if _nums(vs) else "–",
     "min-x": lambda vs: f"{min(_nums(vs)):,.0f}x" if _nums(vs) else "–",
     "max-x": lambda vs: f"{max(_nums(vs)):,.0f}x" if _nums(vs) else "–",
     "list": lambda vs: ", ".join("–" if x is None else f"{x:g}" if isinstance(x, (int, float)) else str(x)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import statistics
 from typing import Any
 
+from ksbo_bench.kinds.vehicles import SPEED
 from ksbo_bench.report.describe import condition, spread, vehicle
 
 #: What each manoeuvre's row reports: (metric, what it is).
@@ -34,7 +35,8 @@ def _label(way: str) -> str:
 
 def _caption(r: dict[str, Any]) -> str:
     k, res = r["key"], r["result"]
-    speed = f", SITL -s {k['speedup']:g}" if k.get("speedup") else ""
+    sp = k.get("speedup") or SPEED.get(k.get("vehicle", ""))
+    speed = f", SITL -s {sp:g}" if sp else ""
     rate = f", ground stream at {res['rate_hz']} Hz" if res.get("rate_hz") else ""
     label = f"{k['label']}: " if k.get("label") else ""
     return (f"**{label}{vehicle(k)}, {condition(k)}{speed}{rate}, {k.get('reps', 3)} flights per cell, "
@@ -78,11 +80,9 @@ def report(sw, recs: list[dict[str, Any]]) -> list[str]:
     out: list[str] = []
     for r in recs:
         out += [_caption(r), cell_table(r)]
-    sets = {k: v for r in recs[-1:] for k, v in r["result"].get("sets", {}).items()}
-    if len(sets) > 1:
-        base = sets.get("baseline", {})
-        out.append("Gain sets (of the newest record): " + "; ".join(
-            f"{name} " + (", ".join(f"{p} {v:.4g}" for p, v in g.items() if base.get(p) != v or name == "baseline")
-                          if name != "baseline" else ", ".join(f"{p} {v:.4g}" for p, v in g.items()))
-            for name, g in sets.items()) + ". In brackets: the change against the baseline flown the same way.")
+    gains = recs[0]["key"].get("gains", {}) if recs else {}
+    if gains:  # the sets as the sweep declares them: the parameters each changes from the vehicle's defaults
+        out.append("Gain sets: baseline = the vehicle's defaults; " + "; ".join(
+            f"{name} = " + ", ".join(f"{p} {v:.4g}" for p, v in g.items()) for name, g in gains.items())
+            + ". In brackets: the change against the baseline flown the same way.")
     return out

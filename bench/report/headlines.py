@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from typing import Any
 
-from ksbo_bench.report.pages import ROOT, blocks, provenance
 
 #: Rows of a sweep's headline table on BENCHMARKS.md at most (the plant suite's ten plants fit).
 HEADLINE_ROWS = 12
@@ -64,13 +63,15 @@ def first_table(body: list[str]) -> list[str]:
     return []
 
 
-def section(title: str, names: tuple[str, ...], extra: str, loaded: dict) -> str:
+def section(title: str, names: tuple[str, ...], extra: str, loaded: dict, page_parts) -> str:
+    """``page_parts(sweep, records) -> (provenance line, body blocks)``: ksbo_bench.report.pages's."""
     parts = [f"## {title}"]
     for name in names:
         sw, recs = loaded[name]
         if not recs:
             continue
-        parts += [provenance(sw, recs, ROOT), *first_table(blocks(sw, recs)),
+        prov, body = page_parts(sw, recs)
+        parts += [prov, *first_table(body),
                   f"Full page: [benchmarks/pages/{name}.md](benchmarks/pages/{name}.md)."]
     return "\n\n".join([*parts, extra] if extra else parts)
 
@@ -91,13 +92,14 @@ def more(loaded: dict[str, Any]) -> str:
     return "\n\n".join(out)
 
 
-def benchmarks(loaded: dict[str, Any]) -> str:
+def benchmarks(loaded: dict[str, Any], page_parts) -> str:
+    """BENCHMARKS.md from the ``loaded`` sweeps ({name: (sweep, records)}) and the pages' ``page_parts``."""
     from ksbo_bench.report.early_stop import section as early_stop
 
     body = [HEADER.strip()]
     for t, n, e in SECTIONS:
         if any(loaded.get(x, (None, []))[1] for x in n):
-            body.append(section(t, n, e, loaded))
+            body.append(section(t, n, e, loaded, page_parts))
             if t == SHORT:
                 body.append(early_stop())
     body.append(more(loaded))

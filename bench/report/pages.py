@@ -65,7 +65,7 @@ def tables(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
 
 def _evaluation(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
     """Each evaluation's own part (its module's ``report``), in the order the sweep declares them."""
-    from ksbo_bench.kinds.evaluation import module
+    from ksbo_bench.kinds.evaluate import module
 
     out = []
     for what in dict.fromkeys(r["key"]["what"] for r in recs):
@@ -135,7 +135,7 @@ def build() -> dict[Path, str]:
 
     loaded = _loaded()
     out = {PAGES / f"{name}.md": page(sw, recs) for name, (sw, recs) in loaded.items() if recs}
-    out[PAGE] = benchmarks(loaded)
+    out[PAGE] = benchmarks(loaded, lambda sw, recs: (provenance(sw, recs, ROOT), blocks(sw, recs)))
     return out
 
 
