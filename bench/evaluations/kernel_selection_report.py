@@ -48,7 +48,7 @@ def report(recs: list[dict[str, Any]]) -> str:
                 "| design | mu | lengthscale | order counts 1..9 | most frequent top-3 |", "|---|---|---|---|---|"]
         for r in se:
             tops = r["result"]["tops"]
-            mode = max(set(tops), key=tops.count)
+            mode = max(sorted(set(tops)), key=tops.count)  # ties: the first in order, the same on every run
             out.append(f"| {r['key']['design']} | {r['key']['mu']:g} | {r['key']['lengthscale']:g} | "
                        f"{' '.join(map(str, r['result']['counts']))} | {mode} ({tops.count(mode)}/{len(tops)}) |")
         out.append("")
