@@ -41,6 +41,20 @@ def _run(machine: str | None, source: str) -> dict[str, Any]:
             "attempts": 1, "source": source}
 
 
+def _lines(rel: str):
+    """The JSON lines of an old records file under benchmarks/ (none if it is gone)."""
+    p = BENCH / rel
+    if p.exists():
+        yield from (json.loads(x) for x in p.read_text().splitlines() if x.strip())
+
+
+def _rec(sweep: str, kind: str, key: dict, result: dict, source: str, machine: str | None, *, status: str = "ok",
+         flights: dict | None = None, safety: dict | None = None, timing: dict | None = None) -> dict[str, Any]:
+    """A converted record of ``source`` (an old file under benchmarks/) made on ``machine``."""
+    return {"schema": SCHEMA, "sweep": sweep, "kind": kind, "key": key, "status": status, "flights": flights or {},
+            "safety": safety or {}, "result": result, "timing": timing or {}, "run": _run(machine, source)}
+
+
 FILES = {"plants-tuning": "tuning.jsonl"}
 
 
@@ -123,36 +137,33 @@ def campaign_record(r: dict[str, Any]) -> dict[str, Any]:
             "run": _run(r.get("machine"), "benchmarks/short-campaign/runs.jsonl")}
 
 
-def _verdicts(flights: list[dict[str, Any]], said: dict[str, str]) -> dict[str, Any]:
-    """The old run's validation flights as the campaign kind records them (ksbo_bench.kinds.campaign_wind)."""
+def _validation(flights: list[dict[str, Any]]) -> dict[str, Any]:
+    """The old run's validation flights as the ``validation`` analysis records them
+    (ksbo_bench.kinds.campaign_validation)."""
     from ksbo_mav.campaign.verdict import DECIDING, judge
 
-    pairs, counts = {}, {}
+    judged = {}
     for m in dict.fromkeys(f["manoeuvre"] for f in flights):
         mine = [f for f in flights if f["manoeuvre"] == m]
-        counts[m] = len(mine)
         if any(f["outcome"] == "error" for f in mine):
-            continue  # not flown by the vehicle: in not_completed
-        metric = DECIDING.get(m, "")
+            continue  # not flown by the vehicle: in validation_not_completed
         sides = [[f for f in mine if (f["gains"] == "baseline") == b] for b in (True, False)]
-        j = judge(*([f["metrics"].get(metric) for f in s if f["outcome"] == "ok"] for s in sides),
+        j = judge(*([f["metrics"].get(DECIDING[m]) for f in s if f["outcome"] == "ok"] for s in sides),
                   *(sum(f["outcome"] != "ok" for f in s) for s in sides))
-        pairs[m] = {"verdict": j.verdict, "metric": metric,
-                    "baseline": round(sum(j.base) / len(j.base), 4) if j.base else None,
-                    "candidate": round(sum(j.cand) / len(j.cand), 4) if j.cand else None,
-                    "spread": None if j.spread is None else round(j.spread, 4),
-                    "aborted": [j.base_aborted, j.cand_aborted], "said": said.get(m, "")}
-    overall = "worse" if any(p["verdict"] == "worse" for p in pairs.values()) else "better" if any(
-        p["verdict"] == "better" for p in pairs.values()) else "not measured"
-    return {"flights": counts, "pairs": [{"pair": "recommendation", "overall": overall, "manoeuvres": pairs}],
-            "not_completed": [{k: f[k] for k in ("manoeuvre", "gains", "outcome", "message")}
-                              for f in flights if f["outcome"] != "ok"]}
+        judged[m] = {"verdict": j.verdict, "metric": DECIDING[m], "base": list(j.base), "cand": list(j.cand),
+                     "spread": j.spread, "diff": j.diff, "base_aborted": j.base_aborted,
+                     "cand_aborted": j.cand_aborted}
+    return {"validation_flights": len(flights), "verdicts": {"recommendation": judged},
+            "validation_by_manoeuvre": {m: sum(f["manoeuvre"] == m for f in flights)
+                                        for m in dict.fromkeys(f["manoeuvre"] for f in flights)},
+            "validation_not_completed": [{k: f[k] for k in ("manoeuvre", "gains", "outcome", "message")}
+                                         for f in flights if f["outcome"] != "ok"]}
 
 
 def wind_records() -> list[dict[str, Any]]:
     """The first PX4 main campaign in wind (benchmarks/px4-main-wind/runs.jsonl, scripts/bench_short_campaign.py)
     and the wind-preflight lean records (benchmarks/wind-preflight/runs.jsonl, scripts/bench_wind_lean.py) ->
-    wind-campaigns, label "first": one record per campaign."""
+    wind-campaigns, label "was-first": one record per campaign."""
     camp = BENCH / "px4-main-wind" / "runs.jsonl"
     lean = BENCH / "wind-preflight" / "runs.jsonl"
     if not camp.exists() or not lean.exists():
@@ -168,17 +179,15 @@ def wind_records() -> list[dict[str, Any]]:
     for r in map(json.loads, camp.read_text().splitlines()):
         fl = r["flights"]
         confirm = [f["rms_lap2_m"] for f in fl if f["kind"] == "confirm"]
-        result = {"rc": 2, "rms_per_flight": [f["rms_lap2_m"] for f in fl],
-                  "said": {"baseline_rms": fl[0]["rms_lap2_m"], "confirm_rms": confirm,
-                           "cut": round(1 - sum(confirm) / len(confirm) / fl[0]["rms_lap2_m"], 4)},
-                  "best_values": None, "validation": _verdicts(r["validation"], r["verdicts"]),
+        result = {"rc": 2, "rms_per_flight": [f["rms_lap2_m"] for f in fl], "baseline_rms": [fl[0]["rms_lap2_m"]],
+                  "confirm_rms": confirm, **_validation(r["validation"]),
                   "wind": {"set": {"mps": 5.0, "from_deg": 45.0}, "flights": len(fl),
                            "inferred_mps": sorted(f["wind_inferred_mps"] for f in fl)[len(fl) // 2],
                            "inferred_from_deg": 45, "sign_ok": True},
                   "wind_preflight": preflight(leans["px4"]), "error": r["verdicts"]["auto_mission"][:300],
                   "refly_note": "re-fly " + r["refly"].split(" (")[0]}
         out.append({"schema": SCHEMA, "sweep": "wind-campaigns", "kind": "campaign",
-                    "key": {"label": "first", "vehicle": "px4", "build": "px4-main", "speedup": 1.0, "seed": 0,
+                    "key": {"label": "was-first", "vehicle": "px4", "build": "px4-main", "speedup": 1.0, "seed": 0,
                             "tune_args": ["--wind", "5"], "sitl_params": {"SIH_WIND_N": 3.54, "SIH_WIND_E": 3.54},
                             "candidates": 0},
                     "status": "failed", "flights": {"total": len(fl), "opt": len(fl) - 1, "confirm": 1, "reflown": 0},
@@ -186,7 +195,7 @@ def wind_records() -> list[dict[str, Any]]:
                     "result": result, "timing": {}, "run": _run(r["machine"], "benchmarks/px4-main-wind/runs.jsonl")})
     a = leans["ardupilot"]
     out.append({"schema": SCHEMA, "sweep": "wind-campaigns", "kind": "campaign",
-                "key": {"label": "first", "vehicle": "ardupilot", "speedup": 3.0, "seed": 0,
+                "key": {"label": "was-first", "vehicle": "ardupilot", "speedup": 3.0, "seed": 0,
                         "tune_args": ["--wind", "5", "--prior", "none", "--budget", "3", "--validation", "off"],
                         "sitl_params": {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 45.0, "SIM_WIND_TURB": 0.0},
                         "refly": 0},

@@ -31,6 +31,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ksbo_sim.sitl_ports import ports_taken
+
 ENV = {"ardupilot": "KSBO_ARDUPILOT_SITL", "px4": "KSBO_PX4_SITL"}
 #: PX4 builds: name -> (folder under shared/sitl, environment variable naming its run script).
 PX4_BUILDS = {"1.15": ("px4", "KSBO_PX4_SITL"), "main": ("px4-main", "KSBO_PX4_MAIN_SITL")}
@@ -237,6 +239,11 @@ def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str 
         raise ValueError(f"PX4 SITL instance {instance}: use 0..9 (instances from 10 up share one API port)")
     build = px4_build(build) if kind == "px4" else ""
     script = find_run_script(kind, build)
+    taken = ports_taken(kind, instance)
+    if taken:  # a second autopilot on them would die at once, and its start would find the first one's heartbeat
+        raise RuntimeError(f"{kind} SITL instance {instance}: {', '.join(taken)} already in use (another SITL or "
+                           "its client?); take another instance number (ksbo_sim.sitl_instances.start_claimed "
+                           "finds a free one)")
     own = workdir is None
     wd = Path(tempfile.mkdtemp(prefix=f"ksbo-{kind}-sitl-")) if own else Path(workdir)
     wd.mkdir(parents=True, exist_ok=True)
@@ -258,6 +265,8 @@ def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str 
         _wait_heartbeat(sitl, heartbeat_timeout)
         for name, value in ({} if keep_params else LASTING_PACK[kind]).items():
             sitl.set_param(name, value)
+        if not sitl.alive:  # the heartbeats came from someone else's autopilot on these ports
+            raise RuntimeError(f"{kind} SITL exited with {sitl.proc.returncode}: {sitl.output()[-2000:]}")
     except BaseException:
         sitl.stop()
         raise

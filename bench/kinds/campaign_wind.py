@@ -1,7 +1,6 @@
-"""What a campaign cell records from its campaign folder besides the re-flown RMS (read before the folder is
-removed): the validation flights' verdicts, the wind the flights inferred beside the wind the cell set (its sign
-checked before a number is written), and with ``tune --wind`` what was decided before takeoff against the lean the
-baseline's figure-8s flew.
+"""The campaign cell's ``wind`` analysis (ksbo_bench.kinds.campaign_analyses): the wind the flights inferred
+beside the wind the cell set (its sign checked before a number is written), and with ``tune --wind`` what was
+decided before takeoff against the lean the baseline's figure-8s flew.
 
 The wind set by the cell, as the direction it blows *from* (deg, clockwise from north): ArduCopter's
 ``SIM_WIND_DIR`` is that direction; PX4 SIH flies ``v_apparent = v + wind``, so (``SIH_WIND_N``, ``SIH_WIND_E``)
@@ -16,6 +15,8 @@ import statistics
 from pathlib import Path
 from typing import Any
 
+#: A trial's figure-8 in its tlog: the tuner's start and end markers (on-board and streamed figure-8s).
+F8_START, F8_END = ("ksbo f8h start", "ksbo f8 start"), ("ksbo f8h end", "ksbo f8 end")
 
 def wind_set(sitl_params: dict[str, float]) -> dict[str, float] | None:
     """{"mps", "from_deg"} of the wind a cell's SITL parameters set; None in calm air."""
@@ -51,62 +52,12 @@ def wind_check(entries: list[dict[str, Any]], sitl_params: dict[str, float]) -> 
     return out
 
 
-def validation(d: Path) -> dict[str, Any] | None:
-    """The validation flights: per comparison its overall word and per manoeuvre the verdict with the judged
-    figure's means; every flight that did not complete, with its outcome and message. None without any."""
-    from ksbo_mav.campaign.validation_log import ValidationJournal
-    from ksbo_mav.campaign.validation_session import validation_verdicts
-
-    path = d / "validation.jsonl"
-    if not path.exists():
-        return None
-    entries = ValidationJournal(path).entries
-    pairs = []
-    for p in validation_verdicts(d):
-        ms = {}
-        for m, j in p["manoeuvres"].items():
-            ms[m] = {"verdict": j["verdict"], "metric": j["metric"],
-                     "baseline": round(statistics.mean(j["baseline"]), 4) if j["baseline"] else None,
-                     "candidate": round(statistics.mean(j["candidate"]), 4) if j["candidate"] else None,
-                     "spread": None if j["spread"] is None else round(j["spread"], 4),
-                     "aborted": [j["baseline_aborted"], j["candidate_aborted"]]}
-        pairs.append({"pair": p["pair"], "overall": p["overall"], "manoeuvres": ms})
-    flights = {m: sum(e.manoeuvre == m for e in entries) for m in dict.fromkeys(e.manoeuvre for e in entries)}
-    other = [{"manoeuvre": e.manoeuvre, "gains": e.gains, "outcome": e.outcome.value, "message": e.message[:200]}
-             for e in entries if e.outcome != "ok"]
-    return {"flights": flights, "pairs": pairs, "not_completed": other}
-
-
-def figure8_lean(tlog: str | Path) -> float | None:
-    """Largest lean (deg) between the figure-8's start and end markers of one trial's tlog."""
-    from ksbo_mav.errors import InputError
-    from ksbo_mav.mav.tlog import read_tlog
-    from ksbo_task.limit_checks import tilt_rad
-
-    try:
-        records = read_tlog(tlog)
-    except InputError:
-        return None
-    peak, inside = None, False
-    for r in records:
-        kind = r.msg.get_type()
-        if r.sent and kind == "STATUSTEXT":
-            text = str(r.msg.text)
-            if text.startswith(("ksbo f8h start", "ksbo f8 start")):
-                inside = True
-            elif text.startswith(("ksbo f8h end", "ksbo f8 end")):
-                inside = False
-        elif inside and not r.sent and kind == "ATTITUDE":
-            lean = math.degrees(tilt_rad(r.msg.roll, r.msg.pitch))
-            peak = lean if peak is None else max(peak, lean)
-    return peak
-
-
 def wind_preflight(d: Path, wind_mps: float, stack: str) -> dict[str, Any]:
     """What ``tune --wind`` decided before takeoff (``ksbo_mav.campaign.wind_preflight``, decided again from the
     snapshot as the campaign did), the lean it predicted for the full and the flown figure-8 (worst direction),
     and the peak lean of the baseline's figure-8s (the first flight and its re-flights in the campaign)."""
-    from ksbo_mav.campaign.wind_preflight import peak_lean_deg, plan_for_wind, vehicle_drag
+    from ksbo_bench.kinds.campaign_validation import peak_lean_deg
+    from ksbo_mav.campaign.wind_preflight import peak_lean_deg as predicted_lean_deg, plan_for_wind, vehicle_drag
     from ksbo_mav.errors import InputError
     from ksbo_mav.mav.params import load_snapshot
     from ksbo_mav.profiles import load_profile
@@ -136,12 +87,12 @@ def wind_preflight(d: Path, wind_mps: float, stack: str) -> dict[str, Any]:
         t = json.loads(p.read_text())
         if (first and t.get("label") == "opt") or str(t.get("label", "")).startswith("baseline"):
             first = first and t.get("label") != "opt"
-            lean = figure8_lean(t["tlog"]) if t.get("tlog") else None
+            lean = peak_lean_deg(t["tlog"], F8_START, F8_END) if t.get("tlog") else None
             if lean is not None:
                 leans.append(round(lean, 2))
     return {"drag": drag.source, "decided": decided, "campaign_tilt_max_deg": tilt, "flown_scale": round(scale, 3),
-            "predicted_full_deg": round(peak_lean_deg(f8, wind_mps, drag), 2),
-            "predicted_flown_deg": round(peak_lean_deg(flown, wind_mps, drag), 2), "baseline_leans_deg": leans}
+            "predicted_full_deg": round(predicted_lean_deg(f8, wind_mps, drag), 2),
+            "predicted_flown_deg": round(predicted_lean_deg(flown, wind_mps, drag), 2), "baseline_leans_deg": leans}
 
 
 def tune_wind(tune_args: list[Any]) -> float | None:
@@ -155,22 +106,13 @@ def tune_wind(tune_args: list[Any]) -> float | None:
     return None
 
 
-def record(d: Path, key: dict[str, Any], entries: list[dict[str, Any]]) -> dict[str, Any]:
-    """The figures above that apply to this cell, and the cut the campaign said (its first flight's lap-2 RMS
-    against its confirmation flights')."""
-    out: dict[str, Any] = {}
-    opt = [e for e in entries if e.get("kind") == "opt" and e.get("rms")]
-    confirm = [round(e["rms"], 4) for e in entries if e.get("kind") == "confirm" and e.get("rms")]
-    if opt and confirm:  # the cut the campaign's report says: its first flight against its confirmation flights
-        out["said"] = {"baseline_rms": round(opt[0]["rms"], 4), "confirm_rms": confirm,
-                       "cut": round(1 - statistics.mean(confirm) / opt[0]["rms"], 4)}
-    v = validation(d)
-    if v:
-        out["validation"] = v
+def analysis(key: dict[str, Any], d: Path, result: dict[str, Any]) -> None:
+    """The figures above that apply to the cell, added to ``result``: ``wind`` (with any wind set or inferred) and
+    ``wind_preflight`` (with ``--wind`` among the tune arguments)."""
+    entries = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
     w = wind_check(entries, key.get("sitl_params") or {})
     if w:
-        out["wind"] = w
+        result["wind"] = w
     declared = tune_wind(key.get("tune_args", []))
     if declared is not None and (d / "campaign.json").exists():
-        out["wind_preflight"] = wind_preflight(d, declared, key["vehicle"])
-    return out
+        result["wind_preflight"] = wind_preflight(d, declared, key["vehicle"])

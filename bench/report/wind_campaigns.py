@@ -28,18 +28,26 @@ def _pct(x: Any) -> str:
     return "–" if x is None else f"{-100 * x:+.0f} %"
 
 
+def said(res: dict[str, Any]) -> tuple[float, list[float], float] | None:
+    """The cut the campaign's report says: its first flight's lap-2 RMS against its confirmation flights'."""
+    first = (res.get("rms_per_flight") or [None])[0]
+    confirm = [x for x in res.get("confirm_rms") or [] if x is not None]
+    if not first or not confirm:
+        return None
+    return first, confirm, 1 - statistics.mean(confirm) / first
+
+
 def campaign_row(r: dict[str, Any]) -> str:
     res, s, f = r.get("result", {}), r.get("safety", {}), r.get("flights", {})
-    said = res.get("said") or {}
-    said_txt = (f"{said['baseline_rms']:.3f} → {statistics.mean(said['confirm_rms']):.3f} ({_pct(said['cut'])})"
-                if said else "–")
+    cut = said(res)
+    said_txt = f"{cut[0]:.3f} → {statistics.mean(cut[1]):.3f} ({_pct(cut[2])})" if cut else "–"
     ref = res.get("reflown") or {}
-    v = (res.get("validation") or {}).get("flights") or {}
-    flights = f"{f.get('total', '–')} + {sum(v.values())} validation + {f.get('reflown', 0)} re-flown"
+    flights = (f"{f.get('total', '–')} + {res.get('validation_flights', 0)} validation + {f.get('reflown', 0)} "
+               "re-flown")
     safety = " / ".join(str(s.get(k, "–")) for k in ("unsafe", "aborted", "crashed", "interrupted"))
     note = res.get("refly_note") or res.get("error") or ("" if r.get("status") == "ok" else r.get("status", ""))
     return (f"| {cell(r)} | {flights} | {safety} | {said_txt} | {_spread(ref.get('baseline'))} | "
-            f"{_spread(ref.get('rec'))} | {_pct(res.get('cut'))} | {note} |")
+            f"{_spread(ref.get('rec'))} | {_pct(res.get('cut'))} | {note.replace('|', '/')} |")
 
 
 def wind_row(r: dict[str, Any]) -> str | None:
@@ -54,25 +62,32 @@ def wind_row(r: dict[str, Any]) -> str | None:
             f"({w['flights']} flights) | {sign} |")
 
 
+def _mean(xs: list[Any]) -> float | None:
+    v = [x for x in xs or [] if x is not None]
+    return statistics.mean(v) if v else None
+
+
 def validation_rows(r: dict[str, Any]) -> list[str]:
-    v = r.get("result", {}).get("validation")
-    if not v:
-        return []
-    out = []
-    for p in v["pairs"]:
-        for m, j in p["manoeuvres"].items():
-            figs = (f"{j['metric']} {j['baseline']:.3g} → {j['candidate']:.3g}"
-                    + (f" (spread {j['spread']:.2g})" if j.get("spread") is not None else "")
-                    if j.get("baseline") is not None and j.get("candidate") is not None else "–")
-            ab = j.get("aborted") or [0, 0]
+    res = r.get("result", {})
+    counts = res.get("validation_by_manoeuvre") or {}
+    out, judged = [], set()
+
+    def why(m: str) -> str:
+        return "; ".join(sorted({x["message"] for x in res.get("validation_not_completed", [])
+                                 if x["manoeuvre"] == m and x["outcome"] == "error"}))[:200].replace("|", "/")
+
+    for pair, ms in (res.get("verdicts") or {}).items():
+        for m, j in ms.items():
+            judged.add(m)
+            b, c = _mean(j.get("base")), _mean(j.get("cand"))
+            spread = f" (spread {j['spread']:.2g})" if j.get("spread") is not None else ""
+            figs = f"{j['metric']} {b:.3g} → {c:.3g}{spread}" if b is not None and c is not None else why(m) or "–"
+            ab = [j.get("base_aborted", 0), j.get("cand_aborted", 0)]
             aborts = f"{ab[0]} / {ab[1]}" if any(ab) else ""
-            out.append(f"| {cell(r)} | {p['pair']} | {m} | {v['flights'].get(m, 0)} | {j['verdict']} | {figs} | "
-                       f"{aborts} |")
-    flown = {m for p in v["pairs"] for m in p["manoeuvres"]}
-    for m, n in v["flights"].items():
-        if m not in flown:
-            why = "; ".join(sorted({x["message"] for x in v["not_completed"] if x["manoeuvre"] == m}))[:200]
-            out.append(f"| {cell(r)} | – | {m} | {n} | not flown | {why} | |")
+            out.append(f"| {cell(r)} | {pair} | {m} | {counts.get(m, '–')} | {j['verdict']} | {figs} | {aborts} |")
+    for m, n in counts.items():
+        if m not in judged:
+            out.append(f"| {cell(r)} | – | {m} | {n} | not flown | {why(m)} | |")
     return out
 
 
@@ -85,6 +100,11 @@ def preflight_row(r: dict[str, Any]) -> str | None:
     leans = ", ".join(f"{x:.1f}" for x in w["baseline_leans_deg"]) or "–"
     return (f"| {cell(r)} | {w['drag']} | {w['predicted_full_deg']:.1f} / {w['predicted_flown_deg']:.1f} | {what} | "
             f"{leans} |")
+
+
+def page(sw: Any, records: list[dict[str, Any]]) -> list[str]:
+    """The page's blocks below the sweep's header (ksbo_bench.report.pages builder "wind")."""
+    return [report(records)] if records else []
 
 
 def report(records: list[dict[str, Any]]) -> str:
