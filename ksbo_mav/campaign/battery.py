@@ -99,7 +99,8 @@ def failsafe_message(v: Vehicle, trial: int | None, resume_hint: str) -> str:
     """The one-line stop after a failsafe: what the vehicle said, how the trial was counted, how to go on."""
     text = v.power.battery_text()
     what = "battery" if text else "autopilot"
-    said = f" (\"{text}\")" if text else ""
+    events = "" if text else v.cmd.recent_events()  # PX4 main says why only in EVENT messages
+    said = f" (\"{text}\")" if text else f" (PX4's events: {events})" if events else ""
     where = f"during trial {trial}" if trial is not None else "between trials"
     counted = "; the trial is recorded as interrupted, not as the gains' fault" if trial is not None else ""
     sim = lasting_pack_hint({n: p.value for n, p in v.params.table.items()}) if text else None

@@ -8,6 +8,7 @@ from collections import deque
 from typing import Any
 
 from ksbo_mav.errors import VehicleError
+from ksbo_mav.mav import px4_events
 from ksbo_mav.mav.link import Link
 from ksbo_mav.mav.stacks import Stack
 from ksbo_mav.mav.wire import mavlink
@@ -42,6 +43,9 @@ class Commander:
         self.texts: deque[tuple[int, str]] = deque(maxlen=20)
         #: STATUSTEXTs received so far: a mark that keeps counting once :attr:`texts` is full (its length does not)
         self.received = 0
+        #: PX4's EVENT messages (ksbo_mav.mav.px4_events), apart from the texts: PX4 repeats its check results
+        #: ("No manual control input" on a SITL) with every change, which would crowd a refusal's explanation.
+        self.events: deque[tuple[int, str]] = deque(maxlen=20)
         self._chunks: dict[int, list[str]] = {}
         self.ack_wait_s = 0.0  # the least wait for an acknowledgement: sized to the link (size_for_link)
         self.extra_attempts = 0
@@ -59,6 +63,11 @@ class Commander:
                 f"{3 + self.extra_attempts} attempts (round trip {rtt_ms or 0:.0f} ms, {loss:.0%} of frames lost)")
 
     def _on_msg(self, msg: Any) -> None:
+        if msg.get_type() == f"UNKNOWN_{px4_events.MSG_ID}":
+            event = px4_events.decode(msg, (self.link.target_system, self.link.target_component))
+            if event is not None:
+                self.events.append(event[1:])
+            return
         if msg.get_type() == "STATUSTEXT" and self.link.is_vehicle(msg):
             text = one_line(str(msg.text))
             tid = int(getattr(msg, "id", 0) or 0)
@@ -74,6 +83,11 @@ class Commander:
     def _keep(self, severity: int, text: str) -> None:
         self.texts.append((severity, text))
         self.received += 1
+
+    def recent_events(self, n: int = 3) -> str:
+        """The last ``n`` different texts of PX4's EVENT messages, newest last ("" without any)."""
+        texts = list(dict.fromkeys(t for _, t in reversed(self.events)))[:n]
+        return ", ".join(f'"{t}"' for t in reversed(texts))
 
     def recent_text(self, since: int = 0) -> str:
         """The last three STATUSTEXTs received after the ``since``-th one (a :attr:`received` mark)."""
