@@ -73,8 +73,9 @@ PX4 = Stack("px4", MAV_AUTOPILOT_PX4, "bytewise",
 AUTOPILOT_UPDATED = {
     "ardupilot": ("STAT_BOOTCNT", "STAT_FLTTIME", "STAT_RUNTIME", "STAT_RESET", "MOT_THST_HOVER", "BARO1_GND_PRESS",
                   "BARO2_GND_PRESS", "BARO3_GND_PRESS", "COMPASS_DEC", "MIS_TOTAL"),
-    # PX4 also saves the accelerometer biases it learns in flight (and re-ranks that sensor's priority).
-    "px4": ("LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO", "COM_FLIGHT_UUID", "CAL_ACC*", "CAL_GYRO*"),
+    # PX4 also saves the accelerometer biases it learns in flight (and re-ranks that sensor's priority); PX4 main
+    # clears the fusion bit of a second GNSS it does not have (EKF2_SENS_EN 8191 -> 8189, measured on its SITL).
+    "px4": ("LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO", "COM_FLIGHT_UUID", "CAL_ACC*", "CAL_GYRO*", "EKF2_SENS_EN"),
 }
 
 
