@@ -78,6 +78,14 @@ class Telemetry:
         self._last_assert_ms = self.clock.last_ms if self.clock.valid else -1e18
         return ok
 
+    def mission_intervals(self) -> list[tuple[int, float]]:
+        """(message id, interval µs) of the campaign's own streams as :meth:`request_rates` asks for them (the
+        mission's at its rate, the pack's and the wind's once a second), to assert them again after a ground
+        station's stream request reset them."""
+        period_us = 1e6 / self.rate_wanted
+        return [(MSG_LPN, period_us), (MSG_ATTITUDE, period_us)] + [
+            (m, 1e6) for m in (MSG_SYS_STATUS, MSG_BATTERY_STATUS, MSG_WIND, MSG_WIND_COV)]
+
     def rate_hz(self, window_ms: float = 1000.0) -> float | None:
         """LOCAL_POSITION_NED samples per second of vehicle time over the last ``window_ms`` (None: too few)."""
         if not self._lpn_stamps:
