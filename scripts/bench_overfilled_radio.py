@@ -1,9 +1,11 @@
 """Benchmark: a default ArduCopter SITL campaign through a radio the vehicle overfills, and its cut re-flown by an
 independent client.
 
-One run: ArduCopter SITL at real time (a link's bandwidth is wall-clock bytes per second), our link emulator on
-its SERIAL0 shaped as a SiK-class radio without RADIO_STATUS (``--shape``, default the ``sik`` case of
-``ksbo_sim.linkshape``), ``ksbo-mav tune DIR --udp ... --end hold`` with every other setting at its default, a
+One run: ArduCopter SITL at real time (a link's bandwidth is wall-clock bytes per second) whose SERIAL0 stream
+rates a ground station left at ``--gcs-rate`` Hz for every group (REQUEST_DATA_STREAM, which ArduPilot stores in
+its MAV1_* parameters, before the campaign; the SITL's own defaults are 0 and it then sends 0.14 kB/s by itself),
+our link emulator on that port shaped as a SiK-class radio without RADIO_STATUS (``--shape``, default the ``sik``
+case of ``ksbo_sim.linkshape``), ``ksbo-mav tune DIR --udp ... --end hold`` with every other setting at its default, a
 bench pilot that centres the SITL's sticks while the vehicle is airborne (its simulated transmitter rests with the
 throttle low, which the LOITER hold of the validation refuses; throttle low again on the ground). Then, over the
 SITL's spare TCP ports (not the radio): every parameter read back and compared with the campaign's snapshot; the
@@ -89,6 +91,20 @@ class BenchPilot:
         self.conn.close()
 
 
+def gcs_stream_rates(sitl, hz: int) -> None:
+    """What a ground station did on SERIAL0 before the campaign: every stream group at ``hz`` (ArduPilot stores the
+    rates in its MAV1_* parameters, so the tuner's snapshot holds them)."""
+    c = mavutil.mavlink_connection(f"tcp:127.0.0.1:{sitl.tcp_port}", source_system=255, source_component=190,
+                                   autoreconnect=False)
+    try:
+        c.wait_heartbeat(timeout=30)
+        for _ in range(3):
+            c.mav.request_data_stream_send(sitl.sysid, 1, mavutil.mavlink.MAV_DATA_STREAM_ALL, hz, 1)
+            time.sleep(0.3)
+    finally:
+        c.close()
+
+
 def set_gains(port: int, values: dict[str, float]) -> None:
     """Write parameters over the SITL's TCP port ``port`` (pymavlink only), each confirmed by its echo."""
     c = mavutil.mavlink_connection(f"tcp:127.0.0.1:{port}", source_system=246, source_component=190,
@@ -147,10 +163,13 @@ def run(a: argparse.Namespace) -> dict:
 
     work = Path(tempfile.mkdtemp(prefix="bench-overfilled-"))
     d = work / "campaign"
-    rec: dict = {"shape": a.shape, "tune_args": a.tune, "reps": a.reps, "dir": str(d)}
+    rec: dict = {"shape": a.shape, "gcs_rate": a.gcs_rate, "tune_args": a.tune, "reps": a.reps, "dir": str(d),
+                 "load_start": os.getloadavg()[1]}
     sitl = start_claimed("ardupilot", 1.0, workdir=work / "sitl")
     pilot = None
     try:
+        if a.gcs_rate:
+            gcs_stream_rates(sitl, a.gcs_rate)
         gport = free_udp_port()
         emu = LinkEmulator(f"tcp:127.0.0.1:{sitl.tcp_port}", f"udp:127.0.0.1:{gport}", a.shape)
         rec["emulator_ready"] = emu.ready_line
@@ -199,6 +218,7 @@ def run(a: argparse.Namespace) -> dict:
         if pilot is not None:
             pilot.close()
         sitl.stop()
+    rec["load_end"] = os.getloadavg()[1]  # 5-minute load average: the machine is shared
     rec["machine"] = machine()
     rec["at"] = time.strftime("%Y-%m-%d %H:%M", time.gmtime())
     return rec
@@ -210,11 +230,12 @@ def _pct(x: float | None) -> str:
 
 def report(write: bool) -> str:
     runs = [json.loads(ln) for ln in RUNS.read_text().splitlines() if ln.strip()] if RUNS.exists() else []
-    rows = ["| run (UTC) | shape | exit | flights (+ validation) | aborted | interrupted | 'link lost' | cut said | "
-            "cut re-flown (client, 3 + 3) | params left changed | campaign wall (s) |",
-            "|---|---|---|---|---|---|---|---|---|---|---|"]
+    rows = ["| run (UTC) | shape | port's stream rates | exit | flights (+ validation) | aborted | interrupted "
+            "| 'link lost' | cut said | cut re-flown (client, 3 + 3) | params left changed | campaign wall (s) |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in runs:
-        rows.append(f"| {r['at']} | `{r['shape']}` | {r['rc']}{' ' + r['error'] if 'error' in r else ''} | "
+        err = f" {r['error']}" if "error" in r else ""
+        rows.append(f"| {r['at']} | `{r['shape']}` | {r.get('gcs_rate') or 0} Hz | {r['rc']}{err} | "
                     f"{r.get('flights', '-')} (+{r.get('validation_flights', '-')}) | {r.get('aborted', '-')} | "
                     f"{r.get('interrupted', '-')} | {r.get('link_lost', '-')} | {_pct(r.get('said_cut'))} | "
                     f"{_pct(r.get('reflown_cut'))} | {len(r.get('changed_params', []))} | {r['wall_s']:.0f} |")
@@ -226,7 +247,8 @@ def report(write: bool) -> str:
 
 ## A default campaign through a radio the vehicle overfills
 
-ArduCopter SITL at real time; the link emulator on its SERIAL0 shaped as a SiK-class radio without RADIO_STATUS;
+ArduCopter SITL at real time, its SERIAL0 stream rates left by a ground station at the rate shown (every group;
+its own defaults are 0); the link emulator on that port shaped as a SiK-class radio without RADIO_STATUS;
 `ksbo-mav tune DIR --udp ... --end hold`, every other setting at its default; a bench pilot centring the SITL's
 sticks while airborne. "cut said": the campaign's confirmation flights against its baseline flights (lap RMS);
 "cut re-flown": the baseline and the recommendation flown in turn by `scripts/figure8_client.py` over the SITL's
@@ -251,6 +273,8 @@ def main() -> int:
     argv = argv[:argv.index("--")] if "--" in argv else argv
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--shape", default="sik", help="link emulator shape (default the sik case)")
+    ap.add_argument("--gcs-rate", type=int, default=10,
+                    help="SERIAL0's stream rates as a ground station left them, Hz per group (0: the SITL's own)")
     ap.add_argument("--reps", type=int, default=3, help="independent re-flights of each gain set (0: none)")
     ap.add_argument("--report", action="store_true", help="only write results.md from the runs kept")
     ap.add_argument("--no-write", action="store_true")

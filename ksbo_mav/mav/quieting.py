@@ -15,6 +15,7 @@ and what the vehicle sends afterwards (its sequence numbers) is the confirmation
 
 from __future__ import annotations
 
+import re
 import time
 from collections import deque
 from collections.abc import Callable
@@ -39,6 +40,8 @@ CONNECT_PACE_HZ = 10.0
 #: Messages that arrive as answers to the link check's own requests (a TIMESYNC a second), not as a stream: asking
 #: for their interval changes nothing. (PX4's Onboard mode also streams TIMESYNC: the table stops that.)
 ANSWERS = frozenset({"TIMESYNC"})
+#: ArduPilot's answer to an interval for a message it has no sender for (the id named): not asked again.
+REFUSAL = re.compile(r"No ap_message for mavlink id \((\d+)\)")
 #: HEARTBEAT.autopilot -> the stack whose table applies (the stack is confirmed later from AUTOPILOT_VERSION).
 _STACK_OF_AUTOPILOT = {3: "ardupilot", 12: "px4"}
 
@@ -84,7 +87,16 @@ class StreamQuieter:
         self.last_sent = 0.0
         self.rounds = 0
         self.log: Callable[[str], None] = lambda s: None
+        #: message ids the vehicle said it cannot send (not asked again: each refusal costs a STATUSTEXT down)
+        self.refused: set[int] = set()
         cmd.link.idle.append(self._drain)
+        cmd.link.handlers.append(self._on_msg)
+
+    def _on_msg(self, msg: Any) -> None:
+        if msg.get_type() == "STATUSTEXT" and self.cmd.link.is_vehicle(msg):
+            m = REFUSAL.search(str(msg.text))
+            if m:
+                self.refused.add(int(m.group(1)))
 
     @property
     def stopped(self) -> set[str]:
@@ -99,10 +111,10 @@ class StreamQuieter:
         """Queue SET_MESSAGE_INTERVAL for each of ``rates`` (0 Hz: -1, stop), after the ``lead`` commands ((message
         id, interval µs): the mission's own streams, re-asserted first), at ``pace_hz`` commands a second."""
         self._gap_s = 1.0 / max(pace_hz, 0.1)
-        self._queue.extend(lead or [])
+        self._queue.extend(c for c in lead or [] if c[0] not in self.refused)
         for name, hz in rates.items():
             mid = message_id(name)
-            if mid is None:
+            if mid is None or mid in self.refused:
                 continue
             self._queue.append((mid, -1.0 if hz <= 0 else 1e6 / hz))
             self.asked[name] = hz
@@ -136,7 +148,8 @@ class StreamQuieter:
         names = list(self.asked)
         self._queue.clear()
         if names:
-            self._queue.extend((mid, 0.0) for mid in (message_id(n) for n in names) if mid is not None)
+            self._queue.extend((mid, 0.0) for mid in (message_id(n) for n in names)
+                               if mid is not None and mid not in self.refused)
             done = self.flush(timeout_s)
             self.log(f"link: asked the vehicle for its own rates of the {len(names)} messages asked down on this "
                      "link" + ("" if done else " (not all sent: a reboot restores them)"))

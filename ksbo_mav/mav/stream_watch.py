@@ -19,6 +19,7 @@ from typing import Any
 
 from ksbo_mav.mav.linkcheck import LinkFigures
 from ksbo_mav.mav.quieting import StreamQuieter, quiet_plan
+from ksbo_mav.mav.stream_sets import group_of
 
 #: Seconds after the last quieting command went out before a stopped message arriving counts: frames the vehicle
 #: queued in a radio's buffer before it obeyed still come.
@@ -113,22 +114,31 @@ class StreamWatch:
                       "far); asked them down again each time")
         elif (frames >= 20 and loss > max(LOSS_MIN, 2 * self.loss_at_check)
               and now - self._last_loss_requiet >= LOSS_GAP_S):
-            self.loss_requiets += 1
+            # The link is fuller than at the check. Streams already asked down are not the cause (the window would
+            # show them back); what is worth asking is the table when nothing was asked yet (a ground station's
+            # streams after a clean check), else only what else the vehicle now sends fast.
             self._last_loss_requiet = now
             fig = LinkFigures(seconds=span, bytes_per_s=0.0, rates_hz={k: n / span for k, n in counts.items()},
                               loss=loss)
-            self._requiet(now, [], fig)
-            self._say("loss", f"link: {loss:.0%} of the vehicle's frames lost by sequence number over the last "
-                      f"{span:.0f} s ({self.loss_at_check:.0%} at the link check){self._others()}: asked the "
-                      "vehicle's streams down again")
+            plan = quiet_plan(q.stack_name, self.needed, fig if q.asked else None)
+            plan = {n: hz for n, hz in plan.items() if n not in q.asked and (not q.asked or counts[n])}
+            if plan:
+                self.loss_requiets += 1
+                q.ask(plan, self.pace_hz, lead=self.lead())
+                self._last_requiet = now
+                self._say("loss", f"link: {loss:.0%} of the vehicle's frames lost by sequence number over the last "
+                          f"{span:.0f} s ({self.loss_at_check:.0%} at the link check){self._others()}: asked the "
+                          f"vehicle to stop or slow {len(plan)} more messages")
 
-    def _requiet(self, now: float, first: list[str], fig: LinkFigures | None = None) -> None:
+    def _requiet(self, now: float, returned: list[str]) -> None:
+        """Ask the returned messages down again, with the rest of their stream groups (a ground station's
+        request resets whole groups, some of whose messages may not have shown yet), the campaign's own streams
+        first."""
         q = self.quieter
-        plan = dict(q.asked) if q.asked else quiet_plan(q.stack_name, self.needed, fig)
-        if fig is not None:
-            plan.update(quiet_plan(q.stack_name, self.needed, fig))
-        ordered = {n: plan[n] for n in first if n in plan} | plan  # what came back first
-        q.ask(ordered, self.pace_hz, lead=self.lead())
+        groups = {group_of(q.stack_name, n) for n in returned} - {None}
+        plan = {n: q.asked[n] for n in returned} | {n: hz for n, hz in q.asked.items()
+                                                    if group_of(q.stack_name, n) in groups}
+        q.ask(plan, self.pace_hz, lead=self.lead())
         self._last_requiet = now
 
     def _others(self) -> str:

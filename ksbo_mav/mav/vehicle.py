@@ -24,6 +24,7 @@ from ksbo_mav.mav.commands import Commander
 from ksbo_mav.mav.gains import GainService
 from ksbo_mav.mav.guided import Guided
 from ksbo_mav.mav.link import Endpoint, Link
+from ksbo_mav.mav.linkcheck import needed_streams
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.params import CAPABILITY_FTP, ParamClient
 from ksbo_mav.mav.pilot import taken_over
@@ -48,7 +49,8 @@ class Vehicle:
         self.lockstep = self.is_sim and params.table["SIM_LOCKSTEP"].value == 1
         self.heartbeat_timeout = float(profile.safety.heartbeat_timeout_s)  # the one source of this timeout
         self.tuning = GainService(params, profile, gain_map)
-        self.telemetry = Telemetry(link, cmd, self.mission.rate_hz)
+        self.telemetry = Telemetry(link, cmd, self.mission.rate_hz,
+                                   actuators="ACTUATOR_OUTPUT_STATUS" in needed_streams(self.mission.kind))
         self.guided = Guided(link, cmd, stack, self.telemetry, self.heartbeat_timeout, self.lockstep)
         self.power = PowerWatch(link)  # battery figures and the vehicle's STATUSTEXTs
         #: The vehicle's streams asked down on a full link (put back by :meth:`close`), and the watch for a ground
