@@ -171,13 +171,14 @@ def run(a: argparse.Namespace) -> dict:
         if a.gcs_rate:
             gcs_stream_rates(sitl, a.gcs_rate)
         gport = free_udp_port()
-        emu = LinkEmulator(f"tcp:127.0.0.1:{sitl.tcp_port}", f"udp:127.0.0.1:{gport}", a.shape)
+        emu = LinkEmulator(f"tcp:127.0.0.1:{sitl.tcp_port}", f"udp:127.0.0.1:{gport}", a.shape, startup_timeout=60)
         rec["emulator_ready"] = emu.ready_line
         pilot = BenchPilot(sitl)
         t0 = time.time()
         try:
             r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp", f"127.0.0.1:{gport}",
-                                "--end", "hold", "--json", *a.tune], capture_output=True, text=True, timeout=14400)
+                                "--end", "hold", "--json", *a.tune], capture_output=True, text=True, timeout=14400,
+                               env={**os.environ, "COLUMNS": "1000"})  # the console's lines unwrapped
         finally:
             rec["emulator"] = emu.stop()
         rec.update(rc=r.returncode, wall_s=round(time.time() - t0, 1))
@@ -235,7 +236,9 @@ def report(write: bool) -> str:
             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in runs:
         err = f" {r['error']}" if "error" in r else ""
-        rows.append(f"| {r['at']} | `{r['shape']}` | {r.get('gcs_rate') or 0} Hz | {r['rc']}{err} | "
+        rate = re.search(r"down ([\d.]+ kB/s)", r.get("emulator_ready", ""))
+        shape = f"`{r['shape']}`" + (f" ({rate.group(1)})" if rate else "")
+        rows.append(f"| {r['at']} | {shape} | {r.get('gcs_rate') or 0} Hz | {r['rc']}{err} | "
                     f"{r.get('flights', '-')} (+{r.get('validation_flights', '-')}) | {r.get('aborted', '-')} | "
                     f"{r.get('interrupted', '-')} | {r.get('link_lost', '-')} | {_pct(r.get('said_cut'))} | "
                     f"{_pct(r.get('reflown_cut'))} | {len(r.get('changed_params', []))} | {r['wall_s']:.0f} |")

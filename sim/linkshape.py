@@ -24,11 +24,12 @@ from dataclasses import dataclass, field, fields
 from ksbo_sim.errors import SimInputError
 
 
-#: Named links, each a spec. ``sik``: a SiK-class telemetry radio at a low air rate in its raw mode (no RADIO_STATUS,
-#: so no flow-control reports), half duplex, a small buffer that drops what does not fit, whole frames lost now and
-#: then. ``sik-status``: the same radio reporting RADIO_STATUS, as SiK firmware does in its MAVLink mode.
-CASES = {"sik": "down=1600,up=1600,duplex=half,queue=1024,latency=0.03,jitter=0.01,loss=0.02,seed=1",
-         "sik-status": "down=1600,up=1600,duplex=half,queue=1024,latency=0.03,jitter=0.01,loss=0.02,seed=1,radio=1"}
+#: Named links, each a spec. ``sik``: a SiK-class telemetry radio in its raw mode (no RADIO_STATUS, so no
+#: flow-control reports) at 2 kB/s (a 64 kbit/s air rate with error correction), half duplex, a small buffer that
+#: drops what does not fit, whole frames lost now and then. ``sik-status``: the same radio reporting RADIO_STATUS,
+#: as SiK firmware does in its MAVLink mode.
+CASES = {"sik": "down=2000,up=2000,duplex=half,queue=1024,latency=0.03,jitter=0.01,loss=0.02,seed=1",
+         "sik-status": "down=2000,up=2000,duplex=half,queue=1024,latency=0.03,jitter=0.01,loss=0.02,seed=1,radio=1"}
 
 
 @dataclass(frozen=True)

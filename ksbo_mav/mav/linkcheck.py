@@ -132,7 +132,9 @@ def verdict(fig: LinkFigures, mission_rate_hz: float) -> str | None:
     radio_full = fig.radio is not None and fig.radio["txbuf"] < 30
     if not (fig.loss > 0.02 or radio_full):
         return None
-    per_sample = fig.bytes_per_s / rate if rate > 0 else 80.0  # bytes of downlink per sample of the stream
+    # bytes of downlink per sample of the stream (a stream starved by a full link makes the ratio meaningless: at most
+    # the mission's own messages, LOCAL_POSITION_NED, ATTITUDE and ACTUATOR_OUTPUT_STATUS, about 230 bytes)
+    per_sample = min(fig.bytes_per_s / rate, 230.0) if rate > 0 else 80.0
     need = per_sample * mission_rate_hz
     return (f"link check: the link delivers {fig.describe()}; a trial needs {name} at {mission_rate_hz:g} Hz "
             f"(about {need / 1000:.1f} kB/s down): use a faster link (a wired companion computer, a faster radio "

@@ -22,6 +22,7 @@ from collections.abc import Callable
 
 from typing import Any
 
+from ksbo_mav.errors import VehicleError
 from ksbo_mav.mav.commands import CMD_INTERVAL, Commander
 from ksbo_mav.mav.link import Link
 from ksbo_mav.mav.linkcheck import GROUND_PICTURE, NEEDED, LinkFigures
@@ -85,7 +86,6 @@ class StreamQuieter:
         self._next_at = 0.0
         #: monotonic time the last queued command went out (frames the vehicle queued before it still arrive)
         self.last_sent = 0.0
-        self.rounds = 0
         self.log: Callable[[str], None] = lambda s: None
         #: message ids the vehicle said it cannot send (not asked again: each refusal costs a STATUSTEXT down)
         self.refused: set[int] = set()
@@ -97,10 +97,6 @@ class StreamQuieter:
             m = REFUSAL.search(str(msg.text))
             if m:
                 self.refused.add(int(m.group(1)))
-
-    @property
-    def stopped(self) -> set[str]:
-        return {n for n, hz in self.asked.items() if hz == 0.0}
 
     @property
     def busy(self) -> bool:
@@ -118,7 +114,6 @@ class StreamQuieter:
                 continue
             self._queue.append((mid, -1.0 if hz <= 0 else 1e6 / hz))
             self.asked[name] = hz
-        self.rounds += 1
 
     def _drain(self) -> None:
         now = time.monotonic()
@@ -128,7 +123,7 @@ class StreamQuieter:
             mid, interval_us = self._queue.popleft()
             try:
                 self.cmd.send(CMD_INTERVAL, mid, interval_us)
-            except Exception:  # noqa: BLE001 - a closed or broken link: nothing more can be asked on it
+            except VehicleError:  # a closed or broken link: nothing more can be asked on it
                 self._queue.clear()
                 return
             self.last_sent = now
