@@ -133,3 +133,47 @@ def test_through_a_radio_and_mavproxy_a_ground_station_asking_again_is_noticed_e
     assert seen["LOCAL_POSITION_NED"] > 1.5 * rate and seen["SYS_STATUS"] <= 6, seen  # the campaign's own rates
     picture = {k: gcs.got[k] / gcs_s for k in ("HEARTBEAT", "ATTITUDE", "LOCAL_POSITION_NED")}
     assert min(picture.values()) >= 0.5, (picture, gcs.got)  # the ground station's picture, a second apart at most
+
+
+def test_a_ground_station_filling_a_link_the_check_found_clear_is_answered_by_the_loss_it_causes():
+    """The check found room (nothing asked down), then a ground station asks every group at 50 Hz: nothing the
+    tuner asked down comes back, but the radio fills and the vehicle's frames are lost by sequence number; the watch
+    asks the stack's default stream sets down whether or not they arrived, and the loss falls."""
+    sim, emu, ep = realtime_through("down=6000,up=20000,queue=1024,seed=5")
+    said: list[str] = []
+    gcs = GroundStation(f"udpout:{sim.host}:{sim.port}")
+    try:
+        v = Vehicle.connect(ep, "sim-planar", log=said.append)
+        try:
+            check_link(v, said.append, seconds=1.5)
+            assert not v.streams.asked, said  # a clear link: the check asked nothing down
+            gcs.ask_for_streams(50)
+            end = time.monotonic() + 20.0
+            while time.monotonic() < end and not v.stream_watch.loss_requiets:
+                v.link.pump(0.02)
+                gcs.pump(0.01)
+            while v.streams.busy or time.monotonic() - v.streams.last_sent < 2.0:
+                v.link.pump(0.02)
+            after = _loss_over(v, 3.0)
+            watch, asked = v.stream_watch.summary(), dict(v.streams.asked)
+        finally:
+            v.close()
+    finally:
+        gcs.conn.close()
+        sim.stop()
+        emu.stop()
+    line = next((s for s in said if "lost by sequence number over the last" in s), "")
+    assert watch["requieted_for_loss"] == 1 and "asked the vehicle to stop or slow" in line, said
+    assert asked.get("SERVO_OUTPUT_RAW") == 0 and asked.get("SYSTEM_TIME") == 0, asked  # the stack's table
+    assert after < 0.1, (after, said)
+
+
+def _loss_over(v: Vehicle, seconds: float) -> float:
+    """Share of the vehicle's frames lost by sequence number over ``seconds``."""
+    seqs: list[int] = []
+    v.link.handlers.append(lambda m: seqs.append(m.get_seq()) if v.link.is_vehicle(m) else None)
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        v.link.pump(0.02)
+    gaps = sum((b - a - 1) % 256 for a, b in zip(seqs, seqs[1:]))
+    return gaps / max(gaps + len(seqs), 1)
