@@ -10,15 +10,18 @@ bench pilot that centres the SITL's sticks while the vehicle is airborne (its si
 throttle low, which the LOITER hold of the validation refuses; throttle low again on the ground). Then, over the
 SITL's spare TCP ports (not the radio): every parameter read back and compared with the campaign's snapshot; the
 baseline and the recommendation flown in turn (``--reps`` each) by ``scripts/figure8_client.py``, a pymavlink
-client that shares nothing with the tuner, scored the same way (lap-2 3-D RMS at each sample's stamp).
+client that shares nothing with the tuner, scored the same way (lap-2 3-D RMS at each sample's stamp):
+``python -m ksbo_bench.figure8_client``.
 
 Reported: the console's link lines (the quieting), flights, validation flights, aborted / interrupted trials, the
 cut the campaign said (its confirmation flights against its baseline flights) against the cut re-flown, and the
 parameters left changed. One JSON line per run in ``benchmarks/overfilled-radio/runs.jsonl``; ``--report`` writes
-``results.md`` from them.
+``results.md`` from them. A diagnostic beside the ``ksbo-bench`` sweeps: its cell (a campaign through the link
+emulator with a ground station's stream rates left on the port, a bench pilot, and a re-fly by a separate client
+over the SITL's spare port, not the radio) is not one the campaign kind declares yet.
 
-    python scripts/bench_overfilled_radio.py [--shape sik] [--reps 3] [-- TUNE-ARGS]
-    python scripts/bench_overfilled_radio.py --report
+    python scripts/diag/overfilled_radio.py [--shape sik] [--reps 3] [-- TUNE-ARGS]
+    python scripts/diag/overfilled_radio.py --report
 """
 
 from __future__ import annotations
@@ -38,17 +41,17 @@ import time
 from pathlib import Path
 
 os.environ.setdefault("MAVLINK20", "1")
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-from _bench_common import BENCH, append_record, machine, write_result  # noqa: E402
-from bench_sitl_campaign import changed_params  # noqa: E402
 from pymavlink import mavutil  # noqa: E402
 
+from ksbo_bench.kinds.independent_refly import changed_params  # noqa: E402
+from ksbo_bench.record import machine  # noqa: E402
+from ksbo_mav.mav.link import Endpoint  # noqa: E402
 from ksbo_sim.linkproc import LinkEmulator  # noqa: E402
 from ksbo_sim.process import free_udp_port  # noqa: E402
 from ksbo_sim.sitl_instances import start_claimed  # noqa: E402
 
-RUNS = BENCH / "overfilled-radio" / "runs.jsonl"
+OUT = Path(__file__).resolve().parents[2] / "benchmarks" / "overfilled-radio"
+RUNS = OUT / "runs.jsonl"
 
 
 class BenchPilot:
@@ -126,7 +129,7 @@ def set_gains(port: int, values: dict[str, float]) -> None:
 
 def fly_client(port: int, mission) -> float:
     """One figure-8 by the independent client on TCP ``port``: its lap-2 RMS (m)."""
-    cmd = [sys.executable, str(HERE / "figure8_client.py"), "--tcp", f"127.0.0.1:{port}", "--scale",
+    cmd = [sys.executable, "-m", "ksbo_bench.figure8_client", "--tcp", f"127.0.0.1:{port}", "--scale",
            str(mission.scale), "--scale-east", str(mission.scale2), "--period", str(mission.period), "--up",
            str(mission.center_up), "--laps", str(mission.laps), "--lead-in", str(mission.lead_in)]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
@@ -197,7 +200,7 @@ def run(a: argparse.Namespace) -> dict:
                        interrupted=s["n_failed"], link_lost=said.count("link lost"),
                        validation_flights=len(val.read_text().splitlines()) if val.exists() else 0)
         if (d / "campaign.json").exists():
-            rec["changed_params"] = changed_params(sitl, d)
+            rec["changed_params"] = changed_params(Endpoint("tcp", "127.0.0.1", sitl.tcp_port), "ardupilot", d)
         if r.returncode == 0 and a.reps:
             cut, base_rms, conf_rms = said_cut(d)
             rec.update(said_cut=cut, said_baseline_rms=base_rms, said_confirm_rms=conf_rms)
@@ -220,7 +223,7 @@ def run(a: argparse.Namespace) -> dict:
             pilot.close()
         sitl.stop()
     rec["load_end"] = os.getloadavg()[1]  # 5-minute load average: the machine is shared
-    rec["machine"] = machine()
+    rec["machine"] = f"{machine()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}"  # as the earlier runs
     rec["at"] = time.strftime("%Y-%m-%d %H:%M", time.gmtime())
     return rec
 
@@ -245,8 +248,8 @@ def report(write: bool) -> str:
     newest = runs[-1] if runs else {}
     quoted = "\n".join(f"    {ln}" for ln in newest.get("link_lines", []))
     machines = sorted({r["machine"].rsplit(",", 1)[0] for r in runs})
-    body = f"""Machine: {'; '.join(machines)}. Script: `python scripts/bench_overfilled_radio.py` (runs in
-`runs.jsonl`).
+    body = f"""Machine: {'; '.join(machines)}. Script: `python scripts/diag/overfilled_radio.py` (runs in
+`runs.jsonl`; the runs before 05:30 on 2026-12-07 by the same script as `scripts/bench_overfilled_radio.py`).
 
 ## A default campaign through a radio the vehicle overfills
 
@@ -254,7 +257,7 @@ ArduCopter SITL at real time, its SERIAL0 stream rates left by a ground station 
 its own defaults are 0); the link emulator on that port shaped as a SiK-class radio without RADIO_STATUS;
 `ksbo-mav tune DIR --udp ... --end hold`, every other setting at its default; a bench pilot centring the SITL's
 sticks while airborne. "cut said": the campaign's confirmation flights against its baseline flights (lap RMS);
-"cut re-flown": the baseline and the recommendation flown in turn by `scripts/figure8_client.py` over the SITL's
+"cut re-flown": the baseline and the recommendation flown in turn by `ksbo_bench.figure8_client` over the SITL's
 spare TCP port (not the radio), means of each. "params left changed": every parameter read back after the campaign
 against its snapshot (the autopilot's own calibration parameters excluded).
 
@@ -266,7 +269,8 @@ The newest run's link lines, as the console printed them:
 """
     print(body)
     if write:
-        write_result("overfilled-radio", body)
+        (OUT / "results.md").write_text(body.strip() + "\n")
+        print(f"wrote {OUT / 'results.md'}")
     return body
 
 
@@ -284,7 +288,10 @@ def main() -> int:
     a = ap.parse_args(argv)
     a.tune = tune
     if not a.report:
-        append_record(RUNS, run(a))
+        rec = run(a)
+        OUT.mkdir(parents=True, exist_ok=True)
+        with RUNS.open("a") as f:
+            f.write(json.dumps(rec) + "\n")
     report(not a.no_write)
     return 0
 
