@@ -103,6 +103,30 @@ def test_install_arm_disarm_remove(sim):
         v.close()
 
 
+def test_a_guard_that_never_reports_is_taken_back_off_the_vehicle(monkeypatch):
+    """An install that fails after it claimed the GCS system id and uploaded the script puts both back before it
+    raises: the campaign never learns of this guard, so nothing else would. Made to happen as on a vehicle whose
+    SCR_ENABLE was set without the reboot it needs: the scripts do not run (here SCR_ENABLE 0 with the installer's
+    check skipped)."""
+    import ksbo_mav.mav.onboard_guard as onboard_guard
+    from ksbo_mav.mav.ftp_files import list_dir
+
+    monkeypatch.setattr(onboard_guard, "ALIVE_WAIT_S", 2.0)
+    with SimProcess("--speedup", "1", "--set", "SCR_ENABLE=0") as s:
+        v = _connect(s)
+        try:
+            baseline = {name: v.params.read(name) for name in v.gain_map.param_names}
+            guard = OnboardGuard(v.link, v.params, v.cmd)
+            guard.check_scripting = lambda: None
+            with pytest.raises(GuardUnavailable, match="did not report"):
+                guard.install(config_for(limits_from_profile(v.profile), 3.0, baseline, new_config_id()))
+            assert guard.gcs_sysid_param == "MAV_GCS_SYSID"  # it had been claimed
+            assert v.params.read("MAV_GCS_SYSID") == 255
+            assert "ksbo_guard.lua" not in (list_dir(v.link, "scripts") or [])
+        finally:
+            v.close()
+
+
 def test_vehicle_without_scripting_is_refused_in_one_line():
     with SimProcess("--set", "SCR_ENABLE=0") as s:
         v = _connect(s)

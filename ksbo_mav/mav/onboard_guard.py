@@ -171,9 +171,22 @@ class OnboardGuard:
         self.cmd.require("restart of the vehicle's scripts", CMD_SCRIPTING, float(SCRIPTING_RESTART))
 
     def install(self, config: GuardConfig) -> None:
-        """Upload ``config``'s guard, restart the scripts and wait until it reports that configuration."""
+        """Upload ``config``'s guard, restart the scripts and wait until it reports that configuration. A failed
+        install takes back what it changed (the GCS system id, the script) before it raises: nobody else knows of
+        this guard yet, so nothing else would."""
         self.check_scripting()
         self._claim_gcs_sysid()
+        try:
+            self._upload_and_start(config)
+        except (VehicleError, InputError):
+            try:
+                self.remove()
+            except (VehicleError, InputError) as exc:
+                self.log(f"onboard guard: the failed install was not fully taken back ({exc}); `ksbo-mav restore "
+                         "DIR` tries again")
+            raise
+
+    def _upload_and_start(self, config: GuardConfig) -> None:
         directory = self._script_dir()
         data = render_script(config)
         self.script_path = f"{directory}/{SCRIPT_NAME}"
