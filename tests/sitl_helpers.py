@@ -26,6 +26,15 @@ def tool(*args: str, timeout: float = 400) -> subprocess.CompletedProcess:
                           timeout=timeout, env=env)
 
 
+def bench_pilot(sitl):
+    """The bench pilot (``ksbo-mav sim-pilot``, :mod:`ksbo_sim.bench_pilot`) in its own process, watching an
+    ArduCopter SITL on its third TCP port (the tuner and an observer keep the other two) and feeding its RC input;
+    the caller stops it (``.stop()`` returns what it printed)."""
+    from ksbo_sim.bench_pilot import PilotProcess
+
+    return PilotProcess(f"tcp:127.0.0.1:{sitl.tcp_ports[2]}")
+
+
 def endpoint(sitl, port: int | None = None) -> Endpoint:
     if sitl.kind == "ardupilot":
         return Endpoint("tcp", "127.0.0.1", port or sitl.tcp_ports[1])

@@ -15,7 +15,10 @@ line); it reads and writes ``campaign.json`` itself.
     validation.jsonl         one line per validation flight (never the optimiser's), appended and fsynced
     validation/flight_NNN.tlog   two-way tlog of every validation flight
     validation_start.json    the gains `ksbo-mav validate` found on the vehicle (put back at its end)
-    result.json              recommendation, before/after, safety counts
+    result.json              recommendation, before/after, safety counts; written once the tune is done, before
+                             the validation flights, and again at the end (``validation``: their state)
+    recommended.param/.params   the recommendation, exported with that first result.json
+    stopped.json             how a campaign that stopped before its end stopped, and the command that continues
     report/                  index.html and its plots (NAME.png)
     accepted.param/.params, diff.txt   written on accept
 """
@@ -103,6 +106,14 @@ class CampaignDir:
     @property
     def result(self) -> Path:
         return self.root / "result.json"
+
+    @property
+    def stopped(self) -> Path:
+        return self.root / "stopped.json"
+
+    @property
+    def recommended_stem(self) -> Path:
+        return self.root / "recommended"
 
     @property
     def report(self) -> Path:

@@ -148,6 +148,11 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     if flown:
         result = {**(result or {}), "validation_lines": verdict_lines(flown),
                   "validation_html": validation_section(flown)}
+    from ksbo_mav.campaign.stops import read_stop
+
+    stop = read_stop(d)
+    if stop is not None:
+        result = {**(result or {}), "stopped": {"reason": stop.reason, "command": stop.command}}
     if drift:
         result = {**(result or {}), "drift": drift}
     if same:
