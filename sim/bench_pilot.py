@@ -61,14 +61,22 @@ class BenchPilot:
     (default from the device's TCP port, :func:`rc_port_for`); ``airborne_m``: height that counts as flying."""
 
     def __init__(self, device: str, rc_port: int | None = None, airborne_m: float = 1.0, sysid: int = 252,
-                 say=print) -> None:
+                 say=print, connect_timeout: float = 120.0) -> None:
         os.environ.setdefault("MAVLINK20", "1")
         from pymavlink import mavutil
 
         self.device, self.airborne_m, self.say = device, float(airborne_m), say
         self.rc_port = rc_port if rc_port is not None else rc_port_for(device)
-        self.conn = mavutil.mavlink_connection(device, source_system=sysid, source_component=190,
-                                               autoreconnect=True)
+        deadline = time.monotonic() + connect_timeout
+        while True:  # a SITL opens its further TCP ports once its first client has connected
+            try:
+                self.conn = mavutil.mavlink_connection(device, source_system=sysid, source_component=190,
+                                                       autoreconnect=True)
+                break
+            except OSError:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(1.0)
         self.rc = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.autopilot: int | None = None  # HEARTBEAT.autopilot: 3 ArduPilot, 12 PX4
         self.target = 1

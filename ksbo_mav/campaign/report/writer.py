@@ -81,6 +81,25 @@ def box_edge_lines(d: CampaignDir | str | Path, result: dict[str, Any] | None = 
     return [m.message() for m in moves] + [h.message() for h in box_edges(rec, result["best"]["x"], profile, limits)]
 
 
+def simulator_wind(d: CampaignDir, rec: CampaignRecord) -> str | None:
+    """What a simulated vehicle's own parameters (as the snapshot holds them) say blows at the mission's height: the
+    truth the inferred wind is read against on a bench (:func:`~ksbo_mav.mav.wind_source.simulated_wind`)."""
+    from ksbo_mav.mav.params import load_snapshot
+    from ksbo_mav.mav.wind_source import simulated_wind
+
+    try:
+        params = {n: v for n, (v, _) in load_snapshot(d.snapshot).params.items()}
+    except Exception:  # noqa: BLE001 - no snapshot, no simulator figure
+        return None
+    height = float((rec.settings.get("mission") or {}).get("center_up", 10.0))
+    blown = simulated_wind(params, height)
+    if blown is None:
+        return None
+    speed, frm, how = blown
+    return (f"the simulator blows {speed:.1f} m/s from {frm:.0f}° at the mission's {height:g} m ({how}; as the "
+            "snapshot holds it)")
+
+
 def _trajectory_plot(rec: CampaignRecord, path: Path) -> str | None:
     """Baseline against the last completed confirmation flight, in the mission's frame."""
     from ksbo_mav.plotting import plot_trajectories, scored_span
@@ -142,6 +161,9 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     paths["conditions"] = plot_conditions(rec, d.report_plot("conditions")) or "none"
     drift, same = load_drift(d), same_condition(rec)
     wind = wind_summary(rec)
+    blown = simulator_wind(d, rec)
+    if wind and blown:
+        wind = f"{wind}; {blown}"
     if wind:
         result = {**(result or {}), "wind": wind}
     flown = ValidationJournal(d.validation_journal).entries
