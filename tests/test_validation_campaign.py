@@ -197,7 +197,7 @@ def test_a_worse_recommendation_makes_validate_fly_the_next_candidate(campaign, 
 def test_a_pack_too_short_for_the_validation_stops_it_cleanly(tmp_path, capsys):
     """A pack (the simulator's, 1100 mAh at 10 A) that carries the tune but not its validation flights: they stop
     before the flight the pack would not fit, in one line naming `ksbo-mav validate`; the tune ends as usual (its
-    result written, the baseline restored, landed) and exits 0."""
+    result written, the baseline restored, landed) and exits 4: tuned, validation incomplete."""
     d = tmp_path / "c"
     prof = _profile(tmp_path)
     with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot", "--battery", "1100") as (sim, ep):
@@ -205,9 +205,10 @@ def test_a_pack_too_short_for_the_validation_stops_it_cleanly(tmp_path, capsys):
         rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--profile", str(prof), "--budget", "3",
                    "--method", "random", "--prior", "none", "--no-onboard-guard"])
         err = capsys.readouterr().err
-        assert rc == 0, err
+        assert rc == 4, err
         text = " ".join(err.split())
         assert "validation stopped: battery: " in text and f"`ksbo-mav validate {d}" in text, text[-3000:]
+        assert "tuned; validation incomplete: stopped: battery: " in text
         assert "landed and disarmed" in text
         flights = _lines(d / "validation.jsonl")
         assert len(flights) < 12 and all(f["outcome"] == "ok" for f in flights)

@@ -15,6 +15,7 @@ line); it reads and writes ``campaign.json`` itself.
     validation.jsonl         one line per validation flight (never the optimiser's), appended and fsynced
     validation/flight_NNN.tlog   two-way tlog of every validation flight
     validation_start.json    the gains `ksbo-mav validate` found on the vehicle (put back at its end)
+    validation/user_mission.json   the vehicle's stored mission while an AUTO validation flight replaces it
     result.json              recommendation, before/after, safety counts; written once the tune is done, before
                              the validation flights, and again at the end (``validation``: their state)
     recommended.param/.params   the recommendation, exported with that first result.json
@@ -98,6 +99,10 @@ class CampaignDir:
 
     def validation_tlog(self, index: int) -> Path:
         return self.validation_flights / f"flight_{index:03d}{TLOG_SUFFIX}"
+
+    @property
+    def user_mission(self) -> Path:
+        return self.validation_flights / "user_mission.json"
 
     @property
     def validation_start(self) -> Path:

@@ -129,6 +129,7 @@ class ValidationFlights:
                  guard: BatteryGuard | None, log: Callable[[str], None], safety: dict[str, float] | None = None,
                  conditions: Any = None) -> None:
         self.v, self.base, self.d, self.plan, self.guard, self.log = v, dict(base), d, plan, guard, log
+        v.mission_file = d.user_mission
         self.journal = ValidationJournal(d.validation_journal)
         self.monitor = Monitor(limits_from_profile(v.profile, safety), v.stack.modes["guided"], v.stack.mode_name)
         self.conditions = conditions
@@ -184,7 +185,9 @@ class ValidationFlights:
             done = "restored and verified" if e.restored else "NOT restored - run `ksbo-mav restore`"
             if e.counted and e.restored and not (e.outcome == "crash" and not self.v.is_sim):
                 return e
-            if not e.restored or not e.outcome.retry or attempt == RETRIES or e.counted:
+            # a lost link that came back, the baseline verified and the vehicle ours again: flown again, as a trial
+            again = e.outcome.retry or (e.outcome is T.LINK and e.restored and self._ours())
+            if not e.restored or not again or attempt == RETRIES or e.counted:
                 if e.restored and e.outcome in SKIPPABLE and self._ours():
                     raise NotFlown(e.message or e.outcome.text)
                 raise VehicleError(f"validation flight {e.flight} ({spec.kind}, {gains}): {e.outcome.text}"
