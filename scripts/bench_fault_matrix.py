@@ -107,10 +107,13 @@ def read_all_params(sitl) -> tuple[dict[str, float], bool]:
     from ksbo_mav.mav.link import Endpoint
     from ksbo_mav.mav.vehicle import Vehicle
 
+    from ksbo_mav.mav.mission_transfer import MissionTransfer
+
     v = Vehicle.connect(Endpoint("tcp", "127.0.0.1", sitl.tcp_ports[1]), "ardupilot-copter", sysid=250, compid=190)
     try:
         hb = v.link.wait_heartbeat(5.0)
-        return {n: p.value for n, p in v.params.table.items()}, bool(hb.base_mode & 128)
+        items = len(MissionTransfer(v.link).download())
+        return {**{n: p.value for n, p in v.params.table.items()}, "_mission_items": items}, bool(hb.base_mode & 128)
     finally:
         v.close()
 
@@ -201,11 +204,20 @@ def run_case(name: str, speed: float, tmp: Path) -> dict:
             rc, out = tool("restore", str(d), *conn)
             steps.append({"cmd": "restore", "exit": rc, "said": [s for s in out.splitlines() if "continues" in s]})
         stop = json.loads((d / "stopped.json").read_text()) if (d / "stopped.json").exists() else None
-        if stop and (fault == "kill" or proc.returncode != 0):
-            cmd = stop["command"].split()[1:]
+        left = json.loads((d / "result.json").read_text()).get("validation") or {} \
+            if (d / "result.json").exists() else {}
+        command = stop["command"] if stop and (fault == "kill" or proc.returncode != 0) else \
+            left.get("command") if left.get("state") == "incomplete" and rec.get("reached") else None
+        for attempt in range(2) if command else ():
+            cmd = command.split()[1:]
             rc, out = tool(*cmd)
             steps.append({"cmd": " ".join(cmd[:2]), "exit": rc, "said": [s for s in out.splitlines() if s.startswith(
-                ("stopped", "error", "tuned;", "validation incomplete", "report:"))][-3:]})
+                ("stopped", "error", "tuned;", "validation incomplete", "validation stopped"))][-3:]})
+            if attempt or "switch it to GUIDED" not in out:
+                break
+            w.conn.mav.command_long_send(1, 1, 176, 0, 1, 4, 0, 0, 0, 0, 0)  # the pilot does as told: GUIDED
+            w.pump(1.0)
+            steps.append({"cmd": "pilot: GUIDED", "exit": 0, "said": []})
         rec["then"] = steps
         result = json.loads((d / "result.json").read_text()) if (d / "result.json").exists() else {}
         rec["result"] = {"validation": (result.get("validation") or {}).get("state"),
@@ -221,6 +233,7 @@ def run_case(name: str, speed: float, tmp: Path) -> dict:
             proc.kill()
     try:
         now, armed = read_all_params(sitl)
+        rec["mission_items_at_end"] = now.pop("_mission_items")
         diff = param_diff(d, now)
         rec["params_vs_snapshot"] = {k: list(v) for k, v in diff.items()}
         rec["armed_at_end"] = armed
@@ -255,7 +268,9 @@ def _diff(r: dict) -> str:
     diff = r.get("params_vs_snapshot")
     if diff is None:
         return "not read"
-    return "all equal" if not diff else f"{len(diff)} differ: " + ", ".join(sorted(diff)[:6])
+    mission = r.get("mission_items_at_end")
+    text = "all equal" if not diff else f"{len(diff)} differ: " + ", ".join(sorted(diff)[:6])
+    return text + ("" if mission is None else f"; stored mission {mission} item(s)")
 
 
 def main() -> int:

@@ -51,9 +51,10 @@ def rc_port_for(device: str) -> int | None:
     """ArduCopter SITL's RC input port for a device on one of its TCP ports (5760..5763 + 10 N), else None."""
     kind, _, rest = device.partition(":")
     port = rest.rpartition(":")[2]
-    if kind != "tcp" or not port.isdigit() or int(port) < SITL_TCP0 or (int(port) - SITL_TCP0) % 10 > 3:
+    n = (int(port) - SITL_TCP0) // 10 if port.isdigit() else -1
+    if kind != "tcp" or not 0 <= n < 100 or (int(port) - SITL_TCP0) % 10 > 3:
         return None
-    return SITL_RC0 + 10 * ((int(port) - SITL_TCP0) // 10)
+    return SITL_RC0 + 10 * n
 
 
 class BenchPilot:
