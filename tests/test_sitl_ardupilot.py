@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from sitl_helpers import accept_then_restore, param_diff, read_all, short_campaign, tool, trials
+from sitl_helpers import accept_then_restore, bench_pilot, param_diff, read_all, short_campaign, tool, trials
 
 from ksbo_mav.mav.trajectory import trajectory_from_tlog
 from ksbo_mav.mav.tlog import read_tlog
@@ -112,17 +112,6 @@ def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
     assert not armed and not param_diff(d, now)
 
 
-def _throttle(sitl, pwm: int) -> None:
-    """SITL's RC input (UDP 5501+10N, 16 PWM values): sticks centred, the throttle at ``pwm``."""
-    import socket
-    import struct
-
-    values = [1500, 1500, pwm, 1500, 1800, 1000, 1000, 1800] + [0] * 8
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        for _ in range(3):
-            s.sendto(struct.pack("<16H", *values), ("127.0.0.1", 5501 + 10 * sitl.instance))
-
-
 def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ardupilot_sitl, tmp_path):
     """The tuner's link through the link emulator, cut (every frame both ways) 1.5 s of wall time into the first
     optimiser trial for 8 s: on board, read on a second connection the tuner does not use, the guard puts the
@@ -137,6 +126,7 @@ def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ar
     gport, d = free_udp_port(), tmp_path / "cut"
     emu = LinkEmulator(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_port}", f"udp:127.0.0.1:{gport}")
     obs = Observer(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_ports[1]}")
+    pilot = bench_pilot(ardupilot_sitl)  # a pilot's transmitter: LOITER holds (a resting throttle would land it)
     proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp", f"127.0.0.1:{gport}",
                              "--prior", "none", "--budget", "2", "--confirm", "0"],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -148,8 +138,6 @@ def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ar
         baseline = json.loads((d / "trials" / "trial_000.json").read_text())["vehicle_values"]
         assert obs.until(lambda: {n: obs.param(n) for n in baseline} != pytest.approx(baseline, rel=1e-6), 60.0), \
             "the trial gains never came"
-        # airborne: a pilot's transmitter at mid-stick (SITL's own throttle is at 1000, which LOITER would land on)
-        _throttle(ardupilot_sitl, 1500)
         obs.pump(1.5)  # into the trial, its gains flying
         cut_ms, cut_wall = obs.vehicle_ms, time.monotonic()
         emu.cut()
@@ -164,7 +152,7 @@ def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ar
             proc.kill()
         obs.close()
         emu.stop()
-        _throttle(ardupilot_sitl, 1000)
+        pilot.stop()
     print(f"link cut at vehicle {cut_ms} ms; the guard tripped at {tripped_ms} ms ({tripped_ms - cut_ms} ms of "
           f"vehicle time, {tripped_wall - cut_wall:.1f} s of wall time); link back after 8 s of wall time")
     assert on_board == pytest.approx(baseline, rel=1e-6)  # put back on board before the link returned
