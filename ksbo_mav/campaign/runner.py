@@ -266,7 +266,7 @@ class Campaign:
             await_failsafe(v, log)
         else:
             end_flight(v, self.cfg.end, True, log)
-        if not self.dir.exists():
+        if not self.dir.exists() or isinstance(exc, InputError):  # refused before anything flew: nothing to continue
             return
         phase = next_phase(self.dir) or "tune"
         command = continue_command(self.dir, self.endpoint, phase)
