@@ -1,7 +1,8 @@
 """Benchmark: the fault matrix on ArduCopter SITL with the onboard guard.
 
 Each case is a fresh SITL (-s 10, Lua scripting on), the tuner (``ksbo-mav tune``, a short campaign with its quick
-validation: a budget of 3, one confirmation, small validation manoeuvres) behind the link emulator, a second MAVLink
+validation: a budget of 2 (the baseline, one optimiser trial), one confirmation, small validation manoeuvres flown
+once each with each gain set) behind the link emulator, a second MAVLink
 connection the tuner does not use (what the vehicle does), and, in the "pilot" cases, the bench pilot
 (``ksbo-mav sim-pilot``) holding the sticks. At the case's phase (takeoff, mid-trial, between trials, the
 confirmation flight, the validation's LOITER hold, its AUTO mission) the fault strikes: the link cut for 8 s of wall
@@ -41,7 +42,7 @@ OBSERVE_S = 12.0
 SMALL = """
 [validation]
 manoeuvres = "steps,hold,auto_mission"
-repeats = 2
+repeats = 1
 
 [validation.steps]
 offsets_m = [[3.0, 0.0, 0.0]]
@@ -87,7 +88,7 @@ def reached(phase: str, d: Path, w: Watch, started: dict) -> bool | None:
     if phase == "between-trials":
         return len(journal) >= 2
     if phase in ("mid-trial", "confirmation"):
-        want = 1 if phase == "mid-trial" else 3
+        want = 1 if phase == "mid-trial" else 2  # trial 1 an optimiser trial, trial 2 the confirmation
         if len(journal) >= want and len(tlogs) > want and "at" not in started:
             started["at"] = now
         return "at" in started and now - started["at"] >= 2.0
@@ -154,7 +155,7 @@ def run_case(name: str, speed: float, tmp: Path) -> dict:
     d = tmp / name
     log = open(tmp / f"{name}.tune.txt", "w")
     proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *conn, "--profile",
-                             str(profile(tmp)), "--budget", "3", "--confirm", "1", "--prior", "none", "--method",
+                             str(profile(tmp)), "--budget", "2", "--confirm", "1", "--prior", "none", "--method",
                              "random", "--validation", "quick"], stdout=log, stderr=subprocess.STDOUT, text=True)
     try:
         started: dict = {}

@@ -74,10 +74,17 @@ def _guards_stop(v: Vehicle) -> bool:
 def classify(v: Vehicle, outcome: T, message: str, trip: GuardTrip | None) -> tuple[T, str]:
     """A flight that the guard stopped for the gains (a gain-caused trip, the vehicle still in its BRAKE or safe
     mode) and that the monitor ended as a pilot's mode change, or did not end at all (the tuner ended the watch
-    before it saw the new mode), gets that trip's outcome; everything else stays as it is."""
-    if outcome not in (T.PILOT, T.OK) or trip is None or trip.outcome is None or not _guards_stop(v):
+    before it saw the new mode), gets that trip's outcome; one the guard stopped because the tuner's heartbeat
+    stopped reaching it while the tuner still heard the vehicle (a tuner held up by a busy computer, a one-way
+    link) is a lost link, not a pilot; everything else stays as it is."""
+    if outcome not in (T.PILOT, T.OK) or trip is None or not _guards_stop(v):
         return outcome, message
     mode = v.stack.mode_name(int(v.guided.heartbeat.custom_mode))
+    if trip.code == LINK_TRIP:
+        return T.LINK, (f"the onboard guard stopped hearing the tuner and switched to {mode} (the tuner held up, or "
+                        "the link one way)")
+    if trip.outcome is None:
+        return outcome, message
     return trip.outcome, f"{trip.outcome.text} on board (the guard switched to {mode})"
 
 
