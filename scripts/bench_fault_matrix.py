@@ -2,7 +2,7 @@
 
 Each case is a fresh SITL (-s 10, Lua scripting on), the tuner (``ksbo-mav tune``, a short campaign with its quick
 validation: a budget of 2 (the baseline, one optimiser trial), one confirmation, small validation manoeuvres flown
-once each with each gain set) behind the link emulator, a second MAVLink
+twice with each gain set) behind the link emulator, a second MAVLink
 connection the tuner does not use (what the vehicle does), and, in the "pilot" cases, the bench pilot
 (``ksbo-mav sim-pilot``) holding the sticks. At the case's phase (takeoff, mid-trial, between trials, the
 confirmation flight, the validation's LOITER hold, its AUTO mission) the fault strikes: the link cut for 8 s of wall
@@ -42,7 +42,7 @@ OBSERVE_S = 12.0
 SMALL = """
 [validation]
 manoeuvres = "steps,hold,auto_mission"
-repeats = 1
+repeats = 2
 
 [validation.steps]
 offsets_m = [[3.0, 0.0, 0.0]]
@@ -147,9 +147,9 @@ def run_case(name: str, speed: float, tmp: Path) -> dict:
     fault, phase, who = name.split("-", 1)[0], name.split("-", 1)[1].rsplit("-", 1)[0], name.rsplit("-", 1)[1]
     rec: dict = {"case": name, "fault": fault, "phase": phase, "pilot": who == "pilot"}
     sitl = start_claimed("ardupilot", speed)
-    pilot = PilotProcess(f"tcp:127.0.0.1:{sitl.tcp_ports[2]}") if who == "pilot" else None
     gport = free_udp_port()
-    emu = LinkEmulator(f"tcp:127.0.0.1:{sitl.tcp_port}", f"udp:127.0.0.1:{gport}")
+    emu = LinkEmulator(f"tcp:127.0.0.1:{sitl.tcp_port}", f"udp:127.0.0.1:{gport}", startup_timeout=120)
+    pilot = PilotProcess(f"tcp:127.0.0.1:{sitl.tcp_ports[2]}", startup_timeout=120) if who == "pilot" else None
     w = Watch(f"tcp:127.0.0.1:{sitl.tcp_ports[1]}")
     conn = ["--udp", f"127.0.0.1:{gport}"]
     d = tmp / name
@@ -290,7 +290,10 @@ def main() -> int:
     for name in todo:
         with tempfile.TemporaryDirectory(prefix="ksbo-fault-") as tmp:
             t = time.time()
-            rec = run_case(name, a.speedup, Path(tmp))
+            try:
+                rec = run_case(name, a.speedup, Path(tmp))
+            except Exception as exc:  # noqa: BLE001 - a case the bench could not set up is recorded, not fatal
+                rec = {"case": name, "reached": False, "note": f"bench failed: {type(exc).__name__}: {exc}"}
             rec["wall_s"] = round(time.time() - t)
             rec["machine"] = machine()
         with open(runs, "a") as fh:
