@@ -139,24 +139,44 @@ def gains_text(now: dict[str, float], base: dict[str, float]) -> str:
 
 
 def run_case(name: str, speed: float, tmp: Path) -> dict:
+    """One case on a fresh SITL, everything it started stopped at the end."""
+    from ksbo_sim.sitl_instances import release_stopped, start_claimed
+
+    sitl = start_claimed("ardupilot", speed)
+    stoppers: list = []  # what this case started, stopped at its end however it ends
+    try:
+        return _fly_case(name, sitl, tmp, stoppers)
+    finally:
+        for stop_it in reversed(stoppers):
+            try:
+                stop_it()
+            except Exception as exc:  # noqa: BLE001 - the next case must start clean
+                print(f"clean-up: {exc}")
+        sitl.stop()
+        release_stopped()
+
+
+def _fly_case(name: str, sitl, tmp: Path, stoppers: list) -> dict:
     from ksbo_sim.bench_pilot import PilotProcess
     from ksbo_sim.linkproc import LinkEmulator
     from ksbo_sim.process import free_udp_port
-    from ksbo_sim.sitl_instances import release_stopped, start_claimed
 
     fault, phase, who = name.split("-", 1)[0], name.split("-", 1)[1].rsplit("-", 1)[0], name.rsplit("-", 1)[1]
     rec: dict = {"case": name, "fault": fault, "phase": phase, "pilot": who == "pilot"}
-    sitl = start_claimed("ardupilot", speed)
     gport = free_udp_port()
     emu = LinkEmulator(f"tcp:127.0.0.1:{sitl.tcp_port}", f"udp:127.0.0.1:{gport}", startup_timeout=120)
-    pilot = PilotProcess(f"tcp:127.0.0.1:{sitl.tcp_ports[2]}", startup_timeout=120) if who == "pilot" else None
+    stoppers.append(emu.stop)
+    if who == "pilot":
+        stoppers.append(PilotProcess(f"tcp:127.0.0.1:{sitl.tcp_ports[2]}", startup_timeout=120).stop)
     w = Watch(f"tcp:127.0.0.1:{sitl.tcp_ports[1]}")
+    stoppers.append(w.close)
     conn = ["--udp", f"127.0.0.1:{gport}"]
     d = tmp / name
     log = open(tmp / f"{name}.tune.txt", "w")
     proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *conn, "--profile",
                              str(profile(tmp)), "--budget", "2", "--confirm", "1", "--prior", "none", "--method",
                              "random", "--validation", "quick"], stdout=log, stderr=subprocess.STDOUT, text=True)
+    stoppers.append(lambda: proc.kill() if proc.poll() is None else None)
     try:
         started: dict = {}
         deadline, moment = time.monotonic() + 900, False
@@ -225,22 +245,14 @@ def run_case(name: str, speed: float, tmp: Path) -> dict:
                          "P_confirm": (result.get("best") or {}).get("P_confirm")}
         w.land()
     finally:
-        for stop_it in (w.close, emu.stop, *((pilot.stop,) if pilot else ())):
-            try:
-                stop_it()
-            except Exception as exc:  # noqa: BLE001 - the next case must start clean
-                print(f"clean-up: {exc}")
+        log.close()
         if proc.poll() is None:
             proc.kill()
-    try:
-        now, armed = read_all_params(sitl)
-        rec["mission_items_at_end"] = now.pop("_mission_items")
-        diff = param_diff(d, now)
-        rec["params_vs_snapshot"] = {k: list(v) for k, v in diff.items()}
-        rec["armed_at_end"] = armed
-    finally:
-        sitl.stop()
-        release_stopped()
+    w.close()
+    now, armed = read_all_params(sitl)
+    rec["mission_items_at_end"] = now.pop("_mission_items")
+    rec["params_vs_snapshot"] = {k: list(v) for k, v in param_diff(d, now).items()}
+    rec["armed_at_end"] = armed
     return rec
 
 
