@@ -11,6 +11,7 @@ gets COM_RCL_EXCEPT = 4 (OFFBOARD without RC) like the other PX4 SITL tests."""
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -52,7 +53,7 @@ def _fly_all(sitl, profile: str, tmp_path) -> dict:
             refused = fly_manoeuvre(v, specs["hold"], mon, gains_label="baseline", tlog_path=tmp_path / "r.tlog")
             assert refused.outcome is T.ERROR and "throttle stick is at 1000 us" in refused.message
             pilot = bench_pilot(sitl)
-            assert v.guided.wait(10.0, lambda: _throttle(v) == 1500), "the bench pilot did not centre the throttle"
+            assert _throttle_becomes(v, 1500), "the bench pilot did not centre the throttle"
         for kind, spec in specs.items():
             f = fly_manoeuvre(v, spec, mon, gains_label="baseline", tlog_path=tmp_path / f"{kind}.tlog")
             assert f.outcome is T.OK, f.message
@@ -62,7 +63,7 @@ def _fly_all(sitl, profile: str, tmp_path) -> dict:
         assert list(map(repr, transfer.download())) == before
         v.land()
         if pilot is not None:  # landed and disarmed: the pilot's throttle back low
-            assert v.guided.wait(10.0, lambda: _throttle(v) == 1000), "the bench pilot left the throttle up"
+            assert _throttle_becomes(v, 1000), "the bench pilot left the throttle up"
     finally:
         v.close()
         if pilot is not None:
@@ -72,10 +73,16 @@ def _fly_all(sitl, profile: str, tmp_path) -> dict:
     return flights
 
 
-def _throttle(v) -> int | None:
-    """The throttle's pulse width the vehicle reports (RC_CHANNELS, asked for once)."""
-    msg = v.cmd.request_message(65, "RC_CHANNELS")
-    return None if msg is None else int(msg.chan3_raw)
+def _throttle_becomes(v, pwm: int, wall_s: float = 60.0) -> bool:
+    """The throttle's pulse width the vehicle reports (RC_CHANNELS) reaches ``pwm`` within ``wall_s`` of wall time
+    (the bench pilot is a process of its own, on the wall clock)."""
+    deadline = time.monotonic() + wall_s
+    while time.monotonic() < deadline:
+        msg = v.cmd.request_message(65, "RC_CHANNELS")
+        if msg is not None and int(msg.chan3_raw) == pwm:
+            return True
+        v.link.pump(0.2)
+    return False
 
 
 def _check(flights: dict, box: tuple[float, float]) -> None:

@@ -174,6 +174,7 @@ def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None 
         flown = ((settings.get("mission") or {}).get("rate_hz"))
         fly_at(v, MissionRate(int(flown or v.mission.rate_hz), lowerable=False), log)
         install_guard(v, cfg.onboard_guard, home, cfg.safety, log)  # its baseline: the gains put back after each
+        set_validation_state(d, {"state": "pending", "command": command})  # a killed validate: restore says so
         rep = fly(v, d, plan, home, Journal(d.journal), x0, best, BatteryGuard(v, command), ConditionWatch(v),
                   command, log)
         set_validation_state(d, rep.state(command))
