@@ -192,6 +192,8 @@ def _fly_case(name: str, sitl, tmp: Path, stoppers: list) -> dict:
             "2", "--confirm", "1", "--prior", "none", "--method", "random", "--validation", "quick"]
     if phase in ("hold", "auto"):  # the validation flights of a recommendation that is not the baseline
         rc, out = tool(*tune[3:-1], "off")
+        if not (d / "result.json").is_file():
+            raise RuntimeError(f"the setup tune (--validation off) ended with exit {rc}: {out[-600:]}")
         rec["setup"] = f"tune --validation off: exit {rc}; recommendation set to {recommend_other(d)}"
         tune = [sys.executable, "-m", "ksbo_mav.cli", "validate", str(d), *conn]
     proc = subprocess.Popen(tune, stdout=log, stderr=subprocess.STDOUT, text=True)
