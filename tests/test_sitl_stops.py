@@ -72,7 +72,7 @@ def test_a_link_cut_with_nobody_on_the_sticks_lands_by_itself_and_the_stop_says_
                              "--budget", "2", "--confirm", "0", "--validation", "off"],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        deadline = time.monotonic() + 400
+        deadline = time.monotonic() + 900
         while not (d / "trials" / "trial_001.tlog").exists():
             assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read()[-3000:]
             obs.pump(0.1)
