@@ -259,6 +259,7 @@ class Campaign:
         pause too); then the stop recorded with the command that continues, and the report of what was flown."""
         log = self.log
         flight = getattr(exc, "flight", None)
+        landed = landed_by_itself(v, flight)  # (before our own landing below)
         failsafe = failsafe_active(v) or (flight is not None and flight.outcome == "failsafe")
         if self.base is not None and not isinstance(exc, InputError):
             safe_stop(v, self.base, str(self.dir.root), log)
@@ -270,7 +271,6 @@ class Campaign:
             return
         phase = next_phase(self.dir) or "tune"
         command = continue_command(self.dir, self.endpoint, phase)
-        landed = landed_by_itself(v, flight)
         paused: CampaignPaused | None = None
         if failsafe:
             trial = flight.meta.get("trial") if flight is not None else None

@@ -146,7 +146,7 @@ class TrialFlight:
                 guard_note, back = self._after_link(restored)
             elif restored:
                 guard_note = self._take_back(trip, guard_note)
-                back = outcome is T.LINK and v.guided.armed and v.guided.in_mode("guided")
+                back = outcome is T.LINK and v.guided.wait(2.0, lambda: v.guided.armed and v.guided.in_mode("guided"))
             if late is not None:  # the vehicle crashed right after the trial, as the baseline took over
                 outcome, message = late
             if guard_note:
