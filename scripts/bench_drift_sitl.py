@@ -28,8 +28,7 @@ os.environ.setdefault("MAVLINK20", "1")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from _bench_common import machine  # noqa: E402
-from bench_sitl_campaign import SPEED, campaign_vehicle, changed_params  # noqa: E402
+from _bench_common import SPEED, campaign_vehicle, changed_params, machine  # noqa: E402
 
 from ksbo_sim.sitl import start_sitl  # noqa: E402
 

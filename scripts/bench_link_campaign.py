@@ -28,8 +28,7 @@ from pathlib import Path
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import BENCH, append_record, machine, write_result  # noqa: E402
-from bench_sitl_campaign import changed_params, endpoint  # noqa: E402
+from _bench_common import BENCH, append_record, changed_params, endpoint, machine, write_result  # noqa: E402
 
 from ksbo_sim.linkproc import LinkEmulator  # noqa: E402
 from ksbo_sim.process import free_udp_port  # noqa: E402

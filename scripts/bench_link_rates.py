@@ -26,8 +26,7 @@ from pathlib import Path
 
 os.environ.setdefault("MAVLINK20", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import machine, write_result  # noqa: E402
-from bench_sitl_campaign import SPEED, endpoint  # noqa: E402
+from _bench_common import SPEED, endpoint, machine, write_result  # noqa: E402
 
 from ksbo_mav.mav.objective import MavlinkObjective  # noqa: E402
 from ksbo_mav.mav.params import load_snapshot  # noqa: E402

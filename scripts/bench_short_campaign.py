@@ -8,7 +8,9 @@ gains at the last few flights where they changed (the flight's own lap RMS, no m
 times each (the same condition). 90 % is reached at flight k when the best-so-far gains after flight k re-fly
 (mean) at or below ``B - 0.9 (B - L)``; flights count the baseline as 1 and every flight the campaign made
 (prior, re-flights of the baseline, confirmation). One JSON line per run, appended to
-benchmarks/short-campaign/runs.jsonl; ``--report`` writes benchmarks/short-campaign/results.md.
+benchmarks/short-campaign/runs.jsonl; ``--report`` folds them into the short-campaign sweep's store
+(benchmarks/store/short-campaign, where ``ksbo-bench run short-campaign`` writes its cells) and rebuilds the pages
+(benchmarks/pages/short-campaign.md, BENCHMARKS.md). A sweep cell does what one run here does.
 
     python scripts/bench_short_campaign.py --stack ardupilot --reference DIR --seed 0 [--wind 5 --turb 1] -- TUNE-ARGS
     python scripts/bench_short_campaign.py --stack px4 --seed 0 -- --budget 30        # a long (reference) campaign
@@ -34,6 +36,8 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 from _bench_common import append_record, machine, refly_in_turn  # noqa: E402
 
+from ksbo_bench.kinds.campaign import best_so_far  # noqa: E402 - the campaign cell kind's, one copy
+
 OUT = ROOT / "benchmarks" / "short-campaign" / "runs.jsonl"
 SPEED = {"ardupilot": 10.0, "px4": 5.0}
 N_CANDIDATES = 4
@@ -43,7 +47,7 @@ N_CANDIDATES = 4
 def vehicle(a: argparse.Namespace):
     """(tune's connection arguments, Endpoint) of a fresh vehicle."""
     if a.stack in SPEED:
-        from bench_sitl_campaign import endpoint
+        from _bench_common import endpoint
 
         from ksbo_sim.sitl import start_sitl
 
@@ -63,19 +67,6 @@ def vehicle(a: argparse.Namespace):
         sets = [arg for kv in a.sim_set for arg in ("--set", kv)]
         with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot", *sets) as (_sim, ep):
             yield ["--udp", f"127.0.0.1:{ep.port}"], ep
-
-
-def best_so_far(entries: list[dict], names: list[str]) -> list[tuple[int, dict[str, float], float]]:
-    """[(flight number, gains, its flown lap RMS)] each time the best flown gains changed (baseline excluded)."""
-    out: list[tuple[int, dict[str, float], float]] = []
-    best = None
-    for k, e in enumerate(entries):
-        if k == 0 or e["kind"] == "baseline" or e["outcome"] != "ok" or not e.get("rms"):
-            continue
-        if best is None or e["rms"] < best:
-            best = e["rms"]
-            out.append((k + 1, dict(zip(names, e["x"])), e["rms"]))
-    return out
 
 
 def recorded_gains(a: argparse.Namespace) -> dict[str, float]:
@@ -108,7 +99,7 @@ def run(a: argparse.Namespace) -> dict:
         rec["kinds"] = {k: sum(e["kind"] == k for e in entries) for k in sorted({e["kind"] for e in entries})}
         rec["rms_per_flight"] = [round(e["rms"], 4) if e.get("rms") else None for e in entries]
         rec["unsafe"] = sum(e["kind"] == "opt" and e["P"] < 0 for e in entries)
-        rec["aborted"] = sum(e["outcome"] in ("aborted", "crashed") for e in entries)  # by the gains
+        rec["aborted"] = sum(e["outcome"] in ("fence", "tilt", "track", "crash") for e in entries)  # by the gains
         rec["interrupted"] = sum(e["kind"] == "failed" for e in entries)  # the vehicle, link or computer
         cands = best_so_far(entries, names)[-a.candidates:] if a.candidates else []
         rec["candidates"] = [(k, round(rms, 4)) for k, _, rms in cands]
@@ -144,11 +135,12 @@ def run(a: argparse.Namespace) -> dict:
 
 
 def main() -> None:
-    if "--report" in sys.argv:
-        from bench_short_campaign_report import report
+    if "--report" in sys.argv:  # the runs are a sweep's records now: folded into its store, then the pages
+        from ksbo_bench.convert_legacy import fold_short_campaign
+        from ksbo_bench.report.pages import main as pages
 
-        report(OUT)
-        return
+        fold_short_campaign(OUT)
+        sys.exit(pages())
     argv = sys.argv[1:]
     tune = argv[argv.index("--") + 1:] if "--" in argv else []
     argv = argv[:argv.index("--")] if "--" in argv else argv

@@ -3,7 +3,7 @@
 Reports wall time, the recommendation's P re-flown over MAVLink and its in-process re-flown E[P] over the fixed
 initial conditions (comparable with the in-process optimiser benchmark), unsafe and aborted trials, and whether
 every exit left the baseline verified on the vehicle. With ``--write`` (or ``--report``) it writes
-benchmarks/mavlink-campaign/results.md (``scripts/benchmarks_page.py`` takes BENCHMARKS.md's headline from it); a
+benchmarks/mavlink-campaign/results.md (``ksbo-bench report`` takes BENCHMARKS.md's headline from it); a
 plain run only prints it (and keeps OUT/results.json), so a one-off experiment does not replace the committed one.
 
     python scripts/bench_tune_campaign.py [--seeds 0 1 2] [--budget 60] [--methods ksbo ksbo-adaptive]

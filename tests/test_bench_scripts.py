@@ -1,11 +1,10 @@
-"""The benchmark scripts: each starts and explains itself, the plant suite's paired comparison calls a plant ahead /
-level / behind from the per-seed differences, its report counts the frozen tables, and the diagnostics under
-scripts/diag/ reproduce what the notes say they show."""
+"""The benchmark scripts and diagnostics: each starts and explains itself; the plant suite's report (ksbo_bench)
+calls a plant ahead / level / behind from the per-seed differences, its report counts the frozen tables, and the
+diagnostics under scripts/diag/ reproduce what the notes say they show."""
 
 from __future__ import annotations
 
 import importlib.util
-import json
 import subprocess
 import sys
 from pathlib import Path
@@ -25,13 +24,11 @@ def _load(name: str):
     return mod
 
 
-@pytest.mark.parametrize(("script", "flag"), [("bench_campaign.py", "--out"), ("bench_campaign_report.py", "--out"),
-                                              ("bench_plants.py", "report"), ("diag/oracle_ray.py", "--plot"),
-                                              ("diag/monitor_backup.py", "--n"),
-                                              ("diag/gain_slices.py", "--plot"),
+@pytest.mark.parametrize(("script", "flag"), [("diag/oracle_ray.py", "--plot"), ("diag/monitor_backup.py", "--n"),
+                                              ("diag/gain_slices.py", "--plot"), ("diag/safe_climb.py", "--seeds"),
+                                              ("diag/sitl_fixed_gains.py", "--reps"),
                                               ("bench_tune_campaign.py", "--write"),
-                                              ("bench_short_campaign.py", "--reference"),
-                                              ("benchmarks_page.py", "--check")])
+                                              ("bench_short_campaign.py", "--reference")])
 def test_bench_scripts_start(script, flag):
     r = subprocess.run([sys.executable, str(SCRIPTS / script), "--help"], capture_output=True, text=True,
                        timeout=120, cwd=ROOT)
@@ -40,7 +37,8 @@ def test_bench_scripts_start(script, flag):
 
 
 def test_paired_comparison_verdicts():
-    paired = _load("_bench_paired")
+    from ksbo_bench.report import paired
+
     rng = np.random.default_rng(0)
     recs = []
     for seed in range(12):
@@ -65,7 +63,8 @@ def test_paired_comparison_verdicts():
 
 
 def test_best_known_counts_the_frozen_tables():
-    plants = _load("bench_plants")
+    from ksbo_bench.report import plants
+
     frozen = plants.frozen_best()
     assert len(frozen) >= 10 and all(-1.0 <= v <= 1.0 for v, _ in frozen.values())
     assert frozen["delay 40ms"][0] == pytest.approx(0.953) and "record lost" in frozen["delay 40ms"][1]
@@ -85,16 +84,6 @@ def test_safe_climb_steps_only_to_gains_safe_from_every_start():
     for gen, _, ep, u in path[1:]:  # every accepted point completes from every start
         P = c.evaluate(np.array(u)[None])[0]
         assert P.min() >= 0 and P[:8].mean() == pytest.approx(ep, abs=5e-3)  # (the path keeps u to 4 decimals)
-
-
-def test_report_on_bad_records_is_a_one_line_error(tmp_path):
-    bad = tmp_path / "records.jsonl"
-    bad.write_text('{"plant": "nominal"}\n{not json\n')
-    for path, words in ((bad, f"{bad}:2 is not a JSON record"), (tmp_path / "missing.jsonl", "no records file")):
-        r = subprocess.run([sys.executable, str(SCRIPTS / "bench_plants.py"), "report", str(path)],
-                           capture_output=True, text=True, timeout=120, cwd=ROOT)
-        assert r.returncode == 1 and words in r.stderr and "Traceback" not in r.stderr
-        assert len(r.stderr.strip().splitlines()) == 1
 
 
 def test_monitor_backup_diag_same_flights_fewer_crashes():
@@ -117,27 +106,27 @@ def test_gain_slices_show_the_pitch_d_cliff_of_pitch_inertia_x05():
     assert fail[0] == 8 and ep[0] < 0
 
 
-def test_flights_to_90_takes_the_best_flown_gains_and_the_report_counts_what_was_not_reached(tmp_path):
-    """bench_short_campaign: the best-so-far gains after each flight (the baseline and non-ok flights are not
-    candidates), and the report's median / worst flights-to-90 with a run that never got there."""
-    sys.path.insert(0, str(SCRIPTS))
-    short = _load("bench_short_campaign")
+def test_flights_to_90_takes_the_best_flown_gains_and_the_report_counts_what_was_not_reached():
+    """The campaign kind: the best-so-far gains after each flight (the baseline and non-ok flights are not
+    candidates); the short-campaign page: median / worst flights-to-90 with a run that never got there."""
+    from ksbo_bench.kinds.campaign import best_so_far
+    from ksbo_bench.report.short_campaign import report
+
     entries = [{"kind": "opt", "x": [1, 1], "outcome": "ok", "rms": 0.20},
                {"kind": "opt", "x": [2, 1], "outcome": "ok", "rms": 0.15},
                {"kind": "failed", "x": [3, 1], "outcome": "client", "rms": 0.01},
                {"kind": "baseline", "x": [1, 1], "outcome": "ok", "rms": 0.05},
                {"kind": "opt", "x": [4, 1], "outcome": "ok", "rms": 0.12}]
-    best = short.best_so_far(entries, ["a", "b"])
+    best = best_so_far(entries, ["a", "b"])
     assert [(k, g["a"], rms) for k, g, rms in best] == [(2, 2, 0.15), (5, 4, 0.12)]
 
     def run(seed: int, to90: int | None, rec: float) -> dict:
-        return {"stack": "ardupilot", "wind_mps": 0.0, "turb": 0.0, "seed": seed, "tune_args": ["--budget", "10"],
-                "label": "default", "flights": 12, "flights_to_90": to90, "share_of_long": 0.9, "cut": 0.5,
-                "unsafe": 0, "aborted": 0, "interrupted": 1 if to90 is None else 0, "machine": "test",
-                "reflown": {"baseline": [0.2, 0.2, 0.2], "rec": [rec] * 3, "long": [0.1] * 3}}
+        return {"key": {"vehicle": "ardupilot", "seed": seed, "tune_args": ["--budget", "10"], "label": "default"},
+                "flights": {"total": 12}, "run": {"machine": "test", "started": "2026-12-07T00:00:00Z"},
+                "safety": {"unsafe": 0, "aborted": 0, "crashed": 0, "interrupted": 1 if to90 is None else 0},
+                "result": {"flights_to_90": to90, "share_of_long": 0.9, "cut": 0.5,
+                           "reflown": {"baseline": [0.2, 0.2, 0.2], "rec": [rec] * 3, "long": [0.1] * 3}}}
 
-    runs = tmp_path / "runs.jsonl"
-    runs.write_text("\n".join(json.dumps(r) for r in (run(0, 4, 0.1), run(1, 6, 0.1), run(2, None, 0.15))) + "\n")
-    _load("bench_short_campaign_report").report(runs)
-    row = next(x for x in (tmp_path / "results.md").read_text().splitlines() if x.startswith("| ArduCopter SITL"))
+    text = report([run(0, 4, 0.1), run(1, 6, 0.1), run(2, None, 0.15)])
+    row = next(x for x in text.splitlines() if x.startswith("| ArduCopter SITL"))
     assert "| 3 | 12 | 6 / not reached |" in row and "0.100 (0.100–0.150)" in row and "| 0 / 0 / 1 |" in row

@@ -1,6 +1,7 @@
 """The package's structure: no import cycle anywhere in ksbo_mav, the optimiser core (gp/, select/, opt/) reaches
 no vehicle, simulator or campaign code, ksbo_sim never imports ksbo_mav, only the simulated objectives and the
-commands that start a simulator import ksbo_sim, ksbo_task imports neither, and no module outgrows ~300 lines.
+commands that start a simulator import ksbo_sim, ksbo_task imports neither, nothing imports the benchmark runner
+(ksbo_bench), and no module outgrows ~300 lines.
 
 The graph is read from the source (every import statement, at module level or inside a function or a
 TYPE_CHECKING block: a deferred import is still a dependency), so the test needs no import side effects."""
@@ -13,7 +14,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = {"ksbo_mav": ROOT / "ksbo_mav", "ksbo_sim": ROOT / "sim", "ksbo_task": ROOT / "task"}
+PACKAGES = {"ksbo_mav": ROOT / "ksbo_mav", "ksbo_sim": ROOT / "sim", "ksbo_task": ROOT / "task",
+            "ksbo_bench": ROOT / "bench"}
 CORE = ("ksbo_mav.gp", "ksbo_mav.select", "ksbo_mav.opt")
 FORBIDDEN_FOR_CORE = ("ksbo_sim", "ksbo_mav.mav", "ksbo_mav.campaign", "ksbo_mav.cli", "ksbo_mav.flightlog")
 MAX_LINES = 320  # "about 300": a module past this is two concepts
@@ -147,6 +149,14 @@ def test_the_task_package_imports_neither_the_tuner_nor_the_simulator() -> None:
     assert "ksbo_task.limit_checks" in GRAPH and "ksbo_task.lead_in" in GRAPH["ksbo_task.figure8_ne"]
     bad = sorted(f"{m} imports {w}" for m, deps in GRAPH.items() if _within(m, ("ksbo_task",))
                  for w in deps if _within(w, ("ksbo_mav", "ksbo_sim")))
+    assert bad == []
+
+
+def test_the_tuner_simulator_and_task_never_import_the_benchmark_runner() -> None:
+    """ksbo_bench is a user of the tuner, like a researcher's script: nothing the tuner flies with depends on it."""
+    assert "ksbo_bench.driver" in GRAPH and "ksbo_bench.kinds.plant" in GRAPH
+    bad = sorted(f"{m} imports {w}" for m, deps in GRAPH.items() if not _within(m, ("ksbo_bench",))
+                 for w in deps if _within(w, ("ksbo_bench",)))
     assert bad == []
 
 

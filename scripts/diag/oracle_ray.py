@@ -1,6 +1,6 @@
 """Diagnostic: what lies between a run's recommendation and the nominal oracle gains (E[P] 0.965)?
 
-For each nominal-plant record of ``benchmarks/plants/records.jsonl`` (one method, one mode), the straight segment
+For each nominal-plant record of the plant sweeps' stores (``--sweeps``; one method, one mode), the straight segment
 from the recommendation to the oracle in the optimiser's unit cube is flown at 51 points on the plant's 8 fixed
 initial conditions, strict (the plant's own score, no monitor). Printed per seed: the best E[P] on the segment
 before its first drop (a point more than 0.1 below the recommendation: some start fails there), how far from the
@@ -12,14 +12,12 @@ recommendation it lies and where the drop is. ``--plot`` draws the segments.
 from __future__ import annotations
 
 import argparse
-import json
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # scripts/: bench_plants
-from bench_plants import ORACLE, RECORDS  # noqa: E402
+from ksbo_bench import sweep as sweeps
+from ksbo_bench.report.plants import ORACLE, flat
+from ksbo_bench.store import Store
 
 DROP = 0.1
 
@@ -49,10 +47,11 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--method", default="ksbo")
     ap.add_argument("--mode", default="monitor", choices=("monitor", "strict"))
     ap.add_argument("--tag", default="")
-    ap.add_argument("--records", default=str(RECORDS))
+    ap.add_argument("--sweeps", default="plants-monitor,plants-strict,plants-history",
+                    help="the plant sweeps whose records to read (comma-separated)")
     ap.add_argument("--plot", default=None, help="PNG path for a figure of the segments")
     a = ap.parse_args(argv)
-    recs = [json.loads(line) for line in Path(a.records).read_text().splitlines() if line.strip()]
+    recs = [flat(r) for n in a.sweeps.split(",") for r in Store(sweeps.load(n).store)]
     recs = [r for r in recs if r["plant"] == "nominal" and r["method"] == a.method and r["mode"] == a.mode
             and r.get("tag", "") == a.tag and not r.get("n_prior")]
     if not recs:

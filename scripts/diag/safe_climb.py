@@ -21,14 +21,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # scripts/: bench_plants
-from bench_plants import _seeds  # noqa: E402
+from ksbo_bench.sweep import parse_ints as _seeds
 
 OUT = Path(__file__).resolve().parent.parent / "benchmarks" / "plants" / "safe-climb.jsonl"
 N_RANDOM, CHECK_STARTS = 24, 200

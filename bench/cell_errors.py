@@ -1,0 +1,16 @@
+"""Why a cell did not give a record. A cell that ends with the vehicle crashed or a trial aborted is a result, not
+an error: its kind returns it as a record."""
+
+
+class InfraError(RuntimeError):
+    """The infrastructure failed, not the gains: a SITL that did not boot, a simulator process that died, a port
+    taken, a node lost. The runner runs the cell again (``--retries``)."""
+
+
+class CellError(RuntimeError):
+    """The cell's own code failed (a bug, a bad option): said once with the cell's key, not retried, not stored,
+    so the next run tries it again."""
+
+
+class SweepError(ValueError):
+    """A sweep file that cannot be read or declares something the runner cannot run (one line, no traceback)."""

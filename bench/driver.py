@@ -1,0 +1,89 @@
+"""The driver of a run: the sweep's cells less those in its store, handed to an executor, each record appended to
+the store as it comes back, progress said on stderr (one line per finished cell: done/total, the cell, its figures,
+its wall time, the node, the estimated time left)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any, TextIO
+
+from ksbo_bench.cell_errors import InfraError
+from ksbo_bench.kinds import KINDS
+from ksbo_bench.store import Store
+from ksbo_bench.sweep import Cell, Sweep, varying
+
+
+@dataclass
+class Summary:
+    total: int = 0
+    skipped: int = 0
+    ran: int = 0
+    failed: list[str] = field(default_factory=list)  # cells that gave no record (infrastructure, the cell's code)
+    wall_s: float = 0.0
+
+
+def headline(rec: dict[str, Any]) -> str:
+    """A record's figures for the progress line."""
+    r, s = rec.get("result", {}), rec.get("safety", {})
+    bits = [f"{k} {r[k]:+.3f}" for k in ("EP", "cut", "share_of_long") if isinstance(r.get(k), (int, float))]
+    if isinstance(r.get("seconds"), (int, float)):
+        bits.append(f"{r['seconds'] * 1e3:.3g} ms")
+    bits += [f"{k} {s[k]}" for k in ("crashed", "aborted", "interrupted", "unsafe") if s.get(k)]
+    if rec.get("status") != "ok":
+        bits.insert(0, rec.get("status", "?").upper())
+    return ", ".join(bits)
+
+
+def pending(sweep: Sweep, store: Store, seeds: list[int] | None = None,
+            where: dict[str, Any] | None = None) -> tuple[list[Cell], int]:
+    """(cells still to run, cells already stored) of ``sweep`` (only those matching ``where``, if given)."""
+    cells = sweep.cells(seeds)
+    if where:
+        cells = [c for c in cells if all(str(c.key.get(k)) == str(v) for k, v in where.items())]
+    done = store.done()
+    todo = [c for c in cells if c.id not in done]
+    return todo, len(cells) - len(todo)
+
+
+def run(sweep: Sweep, executor, store: Store, seeds: list[int] | None = None, where: dict[str, Any] | None = None,
+        out: TextIO = sys.stderr) -> Summary:
+    if sweep.archive:
+        print(f"{sweep.name}: an archive of records (archive = true): nothing to run", file=out)
+        return Summary()
+    todo, skipped = pending(sweep, store, seeds, where)
+    summ = Summary(total=len(todo) + skipped, skipped=skipped)
+    sitl = sum(1 for c in todo if KINDS[c.kind].resources(c.key).get("sitl"))
+    print(f"{sweep.name}: {summ.total} cells, {skipped} already in {store.path}, {len(todo)} to run"
+          + (f" ({sitl} on a SITL)" if sitl else ""), file=out, flush=True)
+    if not todo:
+        return summ
+    todo = [Cell(c.sweep, c.kind, c.key, KINDS[c.kind].inputs(c.key)) for c in todo]  # here, not on the node
+    names = varying(todo)
+    t0 = time.monotonic()
+    first = True
+    for cell, res, attempts in executor.map(todo):
+        if first:
+            print(f"  executor: {executor.describe()}", file=out, flush=True)
+            first = False
+        elapsed = time.monotonic() - t0
+        n = summ.ran + len(summ.failed) + 1
+        eta = elapsed / n * (len(todo) - n)
+        head = f"[{n + skipped:{len(str(summ.total))}d}/{summ.total}] {cell.label(70, names)}"
+        if isinstance(res, dict):
+            store.append(res)
+            summ.ran += 1
+            node = res["run"]["node"] if res["run"]["executor"] == "ray" else ""
+            print(f"{head}: {headline(res)} ({res['timing']['wall_s']:.1f} s{', ' + node if node else ''}"
+                  f"{f', attempt {attempts}' if attempts > 1 else ''}; left ~{eta / 60:.1f} min)", file=out,
+                  flush=True)
+        else:
+            why = "infrastructure" if isinstance(res, InfraError) else type(res).__name__
+            summ.failed.append(f"{cell.id}: {why}: {res}")
+            print(f"{head}: NO RECORD after {attempts} attempt(s) ({why}: {str(res)[:200]})", file=out, flush=True)
+    summ.wall_s = time.monotonic() - t0
+    print(f"{sweep.name}: {summ.ran} records written in {summ.wall_s / 60:.1f} min"
+          + (f", {len(summ.failed)} cells without a record (run again to retry them)" if summ.failed else ""),
+          file=out, flush=True)
+    return summ

@@ -1,0 +1,74 @@
+"""The independent re-fly: on the vehicle a campaign left hovering, named gain sets flown in turn (B R L B R L ...,
+so each sees the same condition on average) through the tuner's own objective, by flights separate from the
+campaign; and the parameters the campaign left changed. A re-flight the tuner stopped for its own sake (it fell
+behind the vehicle on a loaded machine, the link) is flown again; one the monitor aborted is a result (no RMS)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+
+def _fly(obj, x, label: str, tries: int = 3) -> float | None:
+    from ksbo_mav.errors import TrialStopped
+
+    for k in range(tries):
+        try:
+            return obj.fly(x, label=label).score.get("rms_lap2_m")
+        except TrialStopped as e:
+            print(f"re-flight of {label} stopped ({e}); flying it again", file=sys.stderr)
+            if k == tries - 1:
+                raise
+    return None
+
+
+def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3) -> dict[str, list[float | None]]:
+    """{"baseline" and each label of ``gains`` ({label: {parameter: value}}): lap-2 RMS of each of its ``n``
+    flights}, flown in turn on the vehicle the campaign in ``d`` left hovering (reached at Endpoint ``ep``); lands.
+    Gains not named in a set keep the baseline's values."""
+    from ksbo_mav.mav.objective import MavlinkObjective
+    from ksbo_mav.mav.params import load_snapshot
+    from ksbo_mav.mav.vehicle import Vehicle
+
+    snap = load_snapshot(d)
+    v = Vehicle.connect(ep, snap.profile)
+    try:
+        v.setup_streams()
+        base = snap.baseline()
+        obj = MavlinkObjective(v, base, Path(d) / "refly", first_index=0)
+        xs = {"baseline": v.gain_map.from_params(base),
+              **{k: v.gain_map.from_params({**base, **g}) for k, g in gains.items()}}
+        out: dict[str, list[float | None]] = {k: [] for k in xs}
+        for _ in range(n):
+            for k, x in xs.items():
+                out[k].append(_fly(obj, x, k))
+        v.land()
+        return out
+    finally:
+        v.close()
+
+
+def changed_params(sitl, d: Path) -> list[str]:
+    """The SITL's parameters that differ from the campaign's snapshot (those the autopilot updates itself aside)."""
+    from ksbo_mav.mav.link import Endpoint
+    from ksbo_mav.mav.params import load_snapshot
+    from ksbo_mav.mav.stacks import autopilot_updated
+    from ksbo_mav.mav.vehicle import Vehicle
+
+    ep = (Endpoint("tcp", "127.0.0.1", sitl.tcp_port) if sitl.kind == "ardupilot"
+          else Endpoint("udp", "127.0.0.1", sitl.udp_port))
+    snap = load_snapshot(d)
+    v = Vehicle.connect(ep, snap.profile, sysid=250, compid=190)
+    try:
+        now = {k: p.value for k, p in v.params.table.items()}
+    finally:
+        v.close()
+    return sorted(k for k, (val, _) in snap.params.items()
+                  if not autopilot_updated(sitl.kind, k)
+                  and (k not in now or abs(now[k] - val) > 1e-6 * max(1.0, abs(val))))
+
+
+def mean(xs: list[Any]) -> float | None:
+    v = [x for x in xs if x is not None]
+    return sum(v) / len(v) if v else None

@@ -1,0 +1,1 @@
+"""The pages made from the stores: one per sweep (benchmarks/pages/NAME.md) and BENCHMARKS.md."""
