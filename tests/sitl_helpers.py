@@ -11,9 +11,7 @@ from pathlib import Path
 
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.params import load_snapshot
-from ksbo_mav.mav.stacks import autopilot_updated
 from ksbo_mav.mav.vehicle import Vehicle
-
 
 
 def tool(*args: str, timeout: float = 400) -> subprocess.CompletedProcess:
@@ -52,16 +50,9 @@ def read_all(sitl, profile: str) -> tuple[dict[str, float], bool]:
 
 
 def param_diff(campaign: Path, now: dict[str, float]) -> dict[str, tuple[float, float]]:
-    """Parameters whose value differs from the campaign's snapshot, except those the autopilot writes itself
-    (``ksbo_mav.mav.stacks.AUTOPILOT_UPDATED``): {name: (snapshot, now)}."""
-    snap = load_snapshot(campaign)
-    out = {}
-    for name, (value, _) in snap.params.items():
-        if autopilot_updated(snap.stack, name):
-            continue
-        if name not in now or abs(now[name] - value) > 1e-6 * max(1.0, abs(value)):
-            out[name] = (value, now.get(name))
-    return out
+    """Parameters whose value differs from the campaign's snapshot, except those the autopilot writes itself:
+    {name: (snapshot, now)} (ksbo_mav.mav.params.Snapshot.off)."""
+    return load_snapshot(campaign).off(now)
 
 
 def trials(campaign: Path) -> list[dict]:

@@ -58,6 +58,11 @@ KINDS = {k.name: k for k in (
     Kind("campaign", "ksbo_bench.kinds.campaign", ("vehicle", "seed"),
          "a full `ksbo-mav tune` campaign on a fresh vehicle (ArduCopter / PX4 SITL, our JSBSim copter over "
          "MAVLink), then named gains re-flown in turn on it"),
+    Kind("fault", "ksbo_bench.kinds.fault", ("fault", "phase", "pilot"),
+         "one case of the fault matrix on ArduCopter SITL: the link cut or the tuner killed at a phase of a short "
+         "campaign, what the vehicle did, what continued it, the parameters against the snapshot"),
+    Kind("wind", "ksbo_bench.kinds.wind", ("speed", "shape"),
+         "a short campaign on ArduCopter SITL in a set wind: the wind the report infers against what the SITL blows"),
     Kind("timing", "ksbo_bench.kinds.timing", ("what",),
          "a pure timing: seconds of one named operation, best of repeats"),
 )}

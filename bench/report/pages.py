@@ -45,6 +45,9 @@ SECTIONS: list[tuple[str, tuple[str, ...], str]] = [
     ("Safe BO in process on the JSBSim copter", ("plants-copter",), ""),
     ("A tune in one battery: flights to 90 %, copter figures re-flown", ("short-campaign",),
      "Reading: [docs/optimizer.md](docs/optimizer.md), its section on the simulator prior."),
+    ("Stops and wind on ArduCopter SITL: the fault matrix, the inferred wind", ("fault-matrix", "wind-inference"),
+     "Reading: [docs/flight-checklist.md](docs/flight-checklist.md) (stops, exit statuses), [docs/report.md]"
+     "(docs/report.md) (the wind), [benchmarks/notes/stops.md](benchmarks/notes/stops.md)."),
     ("Speed", ("speed",), ""),
 ]
 
@@ -102,6 +105,14 @@ def blocks(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
                 if (ROOT / "docs" / "figures" / f"campaign_{s}.png").is_file()]
     elif builder == "short-campaign":
         from ksbo_bench.report.short_campaign import report
+
+        out.append(report(recs))
+    elif builder == "fault-matrix":
+        from ksbo_bench.report.fault_matrix import report
+
+        out.append(report(recs))
+    elif builder == "wind":
+        from ksbo_bench.report.wind_inference import report
 
         out.append(report(recs))
     return [b.strip("\n") for text in out for b in text.split("\n\n") if b.strip()]

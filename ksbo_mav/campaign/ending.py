@@ -118,15 +118,16 @@ def end_flight(v: Vehicle, end: str, error: bool, log: Callable[[str], None]) ->
         return "unknown"
 
 
-def rewrite_report(d: CampaignDir, profile: Any, log: Callable[[str], None]) -> str | None:
-    """The report written again from disk (after later flights, ``ksbo-mav validate``; after a stop); a report that
-    cannot be made is said, never an error on top of the flights or the stop. Returns its page, if written."""
+def rewrite_report(d: CampaignDir, profile: Any, log: Callable[[str], None], draw: bool = True) -> str | None:
+    """The report written again from disk (after later flights, ``ksbo-mav validate``; after a stop, without
+    ``draw``: the page only, quick); a report that cannot be made is said, never an error on top of the flights or
+    the stop. Returns its page, if written."""
     if not d.exists():
         return None
     try:
         from ksbo_mav.campaign.report.writer import write_report
 
-        page = write_report(d, profile).get("page")
+        page = write_report(d, profile, draw=draw).get("page")
         if page:
             log(f"report: {page}")
         return page

@@ -283,7 +283,7 @@ class Campaign:
         if phase == "validation":
             set_validation_state(self.dir, {"state": "incomplete", "reason": f"stopped: {why}", "command": command})
         write_stop(self.dir, why, command, phase, status, traceback)
-        rewrite_report(self.dir, v.profile, log)
+        rewrite_report(self.dir, v.profile, log, draw=False)
         log(f"stopped: `{command}` continues")
         if paused is not None:
             raise paused from None

@@ -194,7 +194,7 @@ def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None 
             write_stop(d, why, command, "validation", EXIT["interrupted" if isinstance(exc, KeyboardInterrupt)
                                                               else "paused" if isinstance(exc, CampaignPaused)
                                                               else "error"])
-            rewrite_report(d, v.profile, log)
+            rewrite_report(d, v.profile, log, draw=False)
             log(f"validation stopped: `{command}` flies the rest")
         raise
     finally:

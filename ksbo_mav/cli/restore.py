@@ -49,6 +49,6 @@ def after_restore(d, endpoint) -> None:
     if read_stop(d) is None:
         write_stop(d, "the tuner ended without a word (killed, or its computer stopped); `ksbo-mav restore` put the "
                    "baseline gains back", command, phase, EXIT["error"])
-    rewrite_report(d, None, print)
+    rewrite_report(d, None, print, draw=False)
     what = "the tune is unfinished" if phase == "tune" else "the tune is done, its validation flights are incomplete"
     print(f"campaign {d.root}: {what}; `{command}` continues it")

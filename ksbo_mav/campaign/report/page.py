@@ -240,6 +240,7 @@ def render(rec: CampaignRecord, result: dict[str, Any] | None, hits: Sequence[Ed
 </table></div>
 {(result or {}).get("validation_html", "")}
 <h2>Plots</h2>
+{f"<p>{esc(result['plots_note'])}</p>" if (result or {}).get("plots_note") else ""}
 {figures}
 <h2>Trials</h2>
 <p>Numbered as on the console. Gains in the vehicle's units.</p>
