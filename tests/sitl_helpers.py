@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 from ksbo_mav.mav.link import Endpoint
@@ -80,3 +81,28 @@ def short_campaign(sitl, d: Path) -> tuple[Path, dict, str]:
     r = tool("tune", str(d), *sitl.cli_args, "--prior", "none", "--budget", "3", "--json")
     assert r.returncode == 0, r.stderr[-3000:]
     return d, json.loads(r.stdout[r.stdout.index("{"):]), r.stderr
+
+
+def tune_behind_link(sitl, d: Path, *args: str):
+    """``ksbo-mav tune d ARGS`` behind the link emulator (on the SITL's first TCP port) and a second connection the
+    tuner does not use (its second port): (emulator, observer, the tuner's process, its connection arguments)."""
+    from guard_helpers import Observer
+
+    from ksbo_sim.linkproc import LinkEmulator
+    from ksbo_sim.process import free_udp_port
+
+    gport = free_udp_port()
+    emu = LinkEmulator(f"tcp:127.0.0.1:{sitl.tcp_port}", f"udp:127.0.0.1:{gport}")
+    obs = Observer(f"tcp:127.0.0.1:{sitl.tcp_ports[1]}")
+    conn = ["--udp", f"127.0.0.1:{gport}"]
+    proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *conn, *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    return emu, obs, proc, conn
+
+
+def wait_for_trial(proc, d: Path, obs, k: int, wall_s: float) -> None:
+    """Until trial ``k``'s tlog is open (the tuner still running), pumping the observer."""
+    deadline = time.monotonic() + wall_s
+    while not (d / "trials" / f"trial_{k:03d}.tlog").exists():
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read()[-3000:]
+        obs.pump(0.1)

@@ -12,7 +12,8 @@ import time
 
 import pytest
 
-from sitl_helpers import accept_then_restore, bench_pilot, param_diff, read_all, short_campaign, tool, trials
+from sitl_helpers import (accept_then_restore, bench_pilot, param_diff, read_all, short_campaign, tool, trials,
+                          tune_behind_link, wait_for_trial)
 
 from ksbo_mav.mav.trajectory import trajectory_from_tlog
 from ksbo_mav.mav.tlog import read_tlog
@@ -118,23 +119,11 @@ def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ar
     baseline back and brakes; once the link is back the tuner reads what happened there, records the trial as
     interrupted (not given to the optimiser), verifies the baseline, takes the vehicle back and flies the same
     gains again; the report shows the event and every parameter ends as the snapshot had it."""
-    from guard_helpers import Observer
-
-    from ksbo_sim.linkproc import LinkEmulator
-    from ksbo_sim.process import free_udp_port
-
-    gport, d = free_udp_port(), tmp_path / "cut"
-    emu = LinkEmulator(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_port}", f"udp:127.0.0.1:{gport}")
-    obs = Observer(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_ports[1]}")
+    d = tmp_path / "cut"
     pilot = bench_pilot(ardupilot_sitl)  # a pilot's transmitter: LOITER holds (a resting throttle would land it)
-    proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp", f"127.0.0.1:{gport}",
-                             "--prior", "none", "--budget", "2", "--confirm", "0"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    emu, obs, proc, _ = tune_behind_link(ardupilot_sitl, d, "--prior", "none", "--budget", "2", "--confirm", "0")
     try:
-        deadline = time.monotonic() + 300
-        while not (d / "trials" / "trial_001.tlog").exists():
-            assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read()[-3000:]
-            obs.pump(0.1)
+        wait_for_trial(proc, d, obs, 1, 300)
         baseline = json.loads((d / "trials" / "trial_000.json").read_text())["vehicle_values"]
         assert obs.until(lambda: {n: obs.param(n) for n in baseline} != pytest.approx(baseline, rel=1e-6), 60.0), \
             "the trial gains never came"

@@ -11,13 +11,10 @@ finishes the campaign. Every parameter ends as the snapshot had it."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
-import time
 
 import pytest
 
-from sitl_helpers import bench_pilot, param_diff, read_all, tool
+from sitl_helpers import bench_pilot, param_diff, read_all, tool, tune_behind_link, wait_for_trial
 from test_validation_campaign import _lines, _profile
 
 pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.slow, pytest.mark.timeout(1500)]
@@ -59,23 +56,12 @@ def test_without_a_pilot_the_hold_is_not_flown_and_validate_flies_it_later(ardup
 
 def test_a_link_cut_with_nobody_on_the_sticks_lands_by_itself_and_the_stop_says_what_continues(ardupilot_sitl,
                                                                                                  tmp_path):
-    from guard_helpers import Observer
-
-    from ksbo_sim.linkproc import LinkEmulator
-    from ksbo_sim.process import free_udp_port
-
-    gport, d = free_udp_port(), tmp_path / "cut"
-    emu = LinkEmulator(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_port}", f"udp:127.0.0.1:{gport}")
-    obs = Observer(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_ports[1]}")
-    conn = ["--udp", f"127.0.0.1:{gport}"]
-    proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *conn, "--prior", "none",
-                             "--budget", "2", "--confirm", "0", "--validation", "off"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    d = tmp_path / "cut"
+    emu, obs, proc, conn = tune_behind_link(ardupilot_sitl, d, "--prior", "none", "--budget", "2", "--confirm", "0",
+                                            "--validation", "off")
+    gport = conn[1].rsplit(":", 1)[1]
     try:
-        deadline = time.monotonic() + 900
-        while not (d / "trials" / "trial_001.tlog").exists():
-            assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read()[-3000:]
-            obs.pump(0.1)
+        wait_for_trial(proc, d, obs, 1, 900)
         obs.pump(1.5)  # into the trial
         emu.cut()
         assert obs.until(lambda: obs.armed is False, 60.0), obs.texts  # the guard's LOITER came down and disarmed

@@ -20,38 +20,12 @@ from mav_tune_helpers import fresh_read, sim_and_endpoint
 
 from ksbo_mav.campaign.validation_log import ValidationJournal
 from ksbo_mav.campaign.verdict import judge_pairs, refusal
+from ksbo_bench.kinds.fault_moments import profile as _profile
 from ksbo_mav.cli import main
 
 pytestmark = [pytest.mark.network, pytest.mark.timeout(600)]
 
 NAMES = ["PSC_NE_POS_P", "PSC_NE_VEL_P", "PSC_NE_VEL_I", "PSC_NE_VEL_D", "PSC_D_POS_P", "PSC_D_VEL_P"]
-#: The copter profile with small validation manoeuvres (quick halves them again): a short test.
-SMALL = """
-[validation]
-manoeuvres = "steps,hold,auto_mission"
-repeats = 2
-
-[validation.steps]
-offsets_m = [[3.0, 0.0, 0.0]]
-dwell_s = 6.0
-settle_s = 1.0
-
-[validation.hold]
-seconds = 6.0
-settle_s = 1.0
-
-[validation.auto_mission]
-size_m = [4.0, 3.0]
-settle_s = 1.0
-"""
-
-
-def _profile(tmp: Path) -> Path:
-    text = (Path(__file__).parent.parent / "params" / "ardupilot-copter.toml").read_text()
-    text = text[:text.index("[validation]")] + SMALL
-    p = tmp / "small-validation.toml"
-    p.write_text(text)
-    return p
 
 
 def _lines(path: Path) -> list[dict]:

@@ -61,14 +61,21 @@ def reached(phase: str, d: Path, w, started: dict) -> bool | None:
     if phase == "between-trials":
         return len(journal) >= 2
     if phase in ("mid-trial", "confirmation"):
-        # trial 1 an optimiser trial, trial 2 the confirmation: its tlog open and the guard armed for it (the
-        # trial's gains are on the vehicle), then 1 s of wall time (10 s of vehicle time) into it
+        # trial 1 an optimiser trial, trial 2 the confirmation: its tlog open and the guard armed for it, then the
+        # flight's gains read on the vehicle (the tuner writes them just after arming the guard) and 0.5 s of wall
+        # time (5 s of vehicle time) more; gains that stay the baseline's (a confirmation of the baseline) are
+        # struck 2 s after the guard armed
         want = 1 if phase == "mid-trial" else 2
         if "tlog" not in started and len(journal) >= want and len(tlogs) > want:
             started["tlog"] = w.vehicle_ms
         if "tlog" in started and "at" not in started and w.first_alive(1.0, started["tlog"]) is not None:
             started["at"] = now
-        return "at" in started and now - started["at"] >= 1.0
+        if "at" in started and "gains" not in started:
+            base = json.loads((d / "campaign.json").read_text())["baseline"]
+            if gains_text(w.params(sorted(base), tries=1, wait_s=0.3), base).startswith("trial"):
+                started["gains"] = now
+        return ("gains" in started and now - started["gains"] >= 0.5) or ("at" in started and now - started["at"]
+                                                                         >= 2.0)
     flights = lines(d / "validation.jsonl")
     if phase == "hold":
         if any(f["manoeuvre"] == "hold" and f["outcome"] == "error" for f in flights):
