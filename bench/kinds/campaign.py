@@ -85,7 +85,7 @@ def best_so_far(entries: list[dict], names: list[str]) -> list[tuple[int, dict[s
     return out
 
 
-def tune_process(d: Path, conn: list[str], key: dict[str, Any]) -> subprocess.CompletedProcess:
+def _tune(d: Path, conn: list[str], key: dict[str, Any]) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *conn, "--seed", str(key["seed"]),
                            "--end", "hold", "--json", *map(str, key.get("tune_args", []))],
                           capture_output=True, text=True, timeout=float(key.get("timeout_s", 7200)))
@@ -115,7 +115,7 @@ def _run(key: dict[str, Any], ref: dict[str, float] | None, work: Path) -> dict[
     with fresh_vehicle(key, work) as (conn, ep, sitl):
         t0 = time.time()
         with change_at(key, d / "journal.jsonl", sitl, result):
-            r = tune_process(d, conn, key)
+            r = _tune(d, conn, key)
         timing["campaign_s"] = round(time.time() - t0, 1)
         if sitl is not None and not sitl.alive:
             raise InfraError(f"the SITL died during the campaign: {sitl.output()[-300:]}")

@@ -51,24 +51,22 @@ def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3) -
 
 def changed_params(sitl, d: Path) -> list[str]:
     """The SITL's parameters that differ from the campaign's snapshot (those the autopilot updates itself aside)."""
-    from ksbo_mav.mav.params import load_snapshot
-
-    return sorted(load_snapshot(d).off(read_params(sitl)))
-
-
-def read_params(sitl, second: bool = False) -> dict[str, float]:
-    """Every parameter of the SITL, downloaded afresh (ArduCopter: on its first TCP port, or with ``second`` its
-    second, as system 250)."""
     from ksbo_mav.mav.link import Endpoint
+    from ksbo_mav.mav.params import load_snapshot
+    from ksbo_mav.mav.stacks import autopilot_updated
     from ksbo_mav.mav.vehicle import Vehicle
 
-    ep = (Endpoint("tcp", "127.0.0.1", sitl.tcp_ports[1] if second else sitl.tcp_port) if sitl.kind == "ardupilot"
+    ep = (Endpoint("tcp", "127.0.0.1", sitl.tcp_port) if sitl.kind == "ardupilot"
           else Endpoint("udp", "127.0.0.1", sitl.udp_port))
-    v = Vehicle.connect(ep, None, sysid=250, compid=190, param_cache=False)
+    snap = load_snapshot(d)
+    v = Vehicle.connect(ep, snap.profile, sysid=250, compid=190)
     try:
-        return {k: p.value for k, p in v.params.table.items()}
+        now = {k: p.value for k, p in v.params.table.items()}
     finally:
         v.close()
+    return sorted(k for k, (val, _) in snap.params.items()
+                  if not autopilot_updated(sitl.kind, k)
+                  and (k not in now or abs(now[k] - val) > 1e-6 * max(1.0, abs(val))))
 
 
 def mean(xs: list[Any]) -> float | None:

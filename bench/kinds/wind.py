@@ -21,6 +21,8 @@ from __future__ import annotations
 import json
 import os
 import statistics
+import subprocess
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -28,6 +30,9 @@ from typing import Any
 from ksbo_bench.cell_errors import SweepError
 
 SHAPES = {"flat": 1.0, "sqrt": 0.0}
+#: The short campaign each cell flies: the baseline, two random trials, one confirmation.
+TUNE = ("--budget", "3", "--confirm", "1", "--prior", "none", "--method", "random", "--validation", "off", "--end",
+        "hold")
 
 
 def check(key: dict[str, Any]) -> None:
@@ -47,18 +52,17 @@ def sitl_params(key: dict[str, Any]) -> dict[str, float]:
 
 
 def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
-    from ksbo_bench.kinds.campaign import GAIN_ABORTS, tune_process
+    from ksbo_bench.kinds.campaign import GAIN_ABORTS
     from ksbo_bench.kinds.vehicles import fresh_vehicle
     from ksbo_mav.mav.params import load_snapshot
     from ksbo_mav.mav.wind_source import simulated_wind
 
     vkey = {"vehicle": "ardupilot", "speedup": key.get("speedup", 10.0), "sitl_params": sitl_params(key)}
-    tune_key = {"seed": key.get("seed", 0), "tune_args": ["--budget", "3", "--confirm", "1", "--prior", "none",
-                                                          "--method", "random", "--validation", "off"]}
     with tempfile.TemporaryDirectory(prefix="ksbo-bench-wind-") as tmp:
         d = Path(tmp) / "campaign"
         with fresh_vehicle(vkey, Path(tmp)) as (conn, _ep, _sitl):
-            r = tune_process(d, conn, tune_key)
+            r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *conn, *TUNE,
+                                "--seed", str(key.get("seed", 0))], capture_output=True, text=True, timeout=3600)
         journal = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()] \
             if (d / "journal.jsonl").exists() else []
         snap = {n: v for n, (v, _) in load_snapshot(d).params.items()} if (d / "snapshot").exists() else {}
