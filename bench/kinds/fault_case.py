@@ -106,13 +106,16 @@ def _strike(fault: str, proc, emu, w, names: list[str], base: dict[str, float]) 
         proc.kill()
     else:
         emu.cut()
-    back_ms = None
+    back_ms = back_wall = None
     while time.monotonic() - t0 < (CUT_S if fault == "cut" else OBSERVE_S):
         now = w.params(names, tries=1)
         if back_ms is None and now and gains_text(now, base) == "baseline":
-            back_ms = w.vehicle_ms - t0_ms
+            back_ms, back_wall = w.vehicle_ms - t0_ms, time.monotonic() - t0
         w.pump(0.3)
+    # vehicle time (the SITL's clock, 10x), and wall time: the guard counts the tuner's silence in vehicle time
+    # scaled to the tuner's wall-clock timeout (on a real vehicle both are the same)
     out["trial_gains_after_fault_s"] = None if back_ms is None else round(back_ms / 1000.0, 1)
+    out["trial_gains_after_fault_wall_s"] = None if back_wall is None else round(back_wall, 1)
     out["vehicle"] = [f"{(t - t0_ms) / 1000.0:+.1f} s {what}" for t, what in w.events if t >= t0_ms]
     out["left"] = {"mode": w.mode_name(w.mode), "armed": w.armed, "height_m": w.height,
                    "gains": gains_text(w.params(names), base)}

@@ -36,8 +36,10 @@ def _vehicle(res: dict[str, Any]) -> str:
 def _flew(res: dict[str, Any]) -> str:
     if res.get("gains_at_fault") == "baseline":
         return "– (baseline on)"
-    flew = res.get("trial_gains_after_fault_s")
-    return "not back in the window" if flew is None else f"{flew:.1f} s"
+    flew, wall = res.get("trial_gains_after_fault_s"), res.get("trial_gains_after_fault_wall_s")
+    if flew is None:
+        return "not back in the window"
+    return f"{flew:.1f} s" + ("" if wall is None else f" ({wall:.1f} s wall)")
 
 
 def _cmd(cmd: str) -> str:
@@ -60,8 +62,8 @@ def _params(res: dict[str, Any]) -> str:
 
 
 def table(recs: list[dict[str, Any]]) -> str:
-    head = ("| case | at the fault | the vehicle after it (vehicle time) | trial gains on after it | left | tuner exit "
-            "| then (exit) | validation | params vs snapshot |\n|---|---|---|---|---|---|---|---|---|")
+    head = ("| case | at the fault | the vehicle after it (vehicle time) | trial gains on after it (vehicle time) | left "
+            "| tuner exit | then (exit) | validation | params vs snapshot |\n|---|---|---|---|---|---|---|---|---|")
     rows = []
     for r in newest(recs):
         res = r["result"]
