@@ -62,8 +62,9 @@ def _params(res: dict[str, Any]) -> str:
 
 
 def table(recs: list[dict[str, Any]]) -> str:
-    head = ("| case | at the fault | the vehicle after it (vehicle time) | trial gains on after it (vehicle time)"
-            "| left | tuner exit | then (exit) | validation | params vs snapshot |\n|---|---|---|---|---|---|---|---|---|")
+    head = ("| case | at the fault | the vehicle after it (vehicle time) | trial gains on after it (vehicle time) "
+            "| left | tuner exit | then (exit) | validation | params vs snapshot |\n"
+            "|---|---|---|---|---|---|---|---|---|")
     rows = []
     for r in newest(recs):
         res = r["result"]
