@@ -14,3 +14,8 @@ class CellError(RuntimeError):
 
 class SweepError(ValueError):
     """A sweep file that cannot be read or declares something the runner cannot run (one line, no traceback)."""
+
+
+class NotYet(SweepError):
+    """A cell's input is another cell's record that is not in its store yet (a warm start's earlier campaign, a
+    reference campaign): the driver runs the cells that can run first, then tries again; said if none can."""

@@ -41,6 +41,20 @@ def _run(machine: str | None, source: str) -> dict[str, Any]:
             "attempts": 1, "source": source}
 
 
+def _lines(rel: str):
+    """The JSON lines of an old records file under benchmarks/ (none if it is gone)."""
+    p = BENCH / rel
+    if p.exists():
+        yield from (json.loads(x) for x in p.read_text().splitlines() if x.strip())
+
+
+def _rec(sweep: str, kind: str, key: dict, result: dict, source: str, machine: str | None, *, status: str = "ok",
+         flights: dict | None = None, safety: dict | None = None, timing: dict | None = None) -> dict[str, Any]:
+    """A converted record of ``source`` (an old file under benchmarks/) made on ``machine``."""
+    return {"schema": SCHEMA, "sweep": sweep, "kind": kind, "key": key, "status": status, "flights": flights or {},
+            "safety": safety or {}, "result": result, "timing": timing or {}, "run": _run(machine, source)}
+
+
 FILES = {"plants-tuning": "tuning.jsonl"}
 
 

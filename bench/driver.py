@@ -9,7 +9,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
-from ksbo_bench.cell_errors import InfraError
+from ksbo_bench.cell_errors import InfraError, NotYet
 from ksbo_bench.kinds import KINDS
 from ksbo_bench.store import Store
 from ksbo_bench.sweep import Cell, Sweep, varying
@@ -28,8 +28,9 @@ def headline(rec: dict[str, Any]) -> str:
     """A record's figures for the progress line."""
     r, s = rec.get("result", {}), rec.get("safety", {})
     bits = [f"{k} {r[k]:+.3f}" for k in ("EP", "cut", "share_of_long") if isinstance(r.get(k), (int, float))]
-    if isinstance(r.get("seconds"), (int, float)):
-        bits.append(f"{r['seconds'] * 1e3:.3g} ms")
+    secs = rec.get("timing", {}).get("seconds") if rec.get("kind") == "timing" else r.get("seconds")
+    if isinstance(secs, (int, float)):
+        bits.append(f"{secs * 1e3:.3g} ms")
     bits += [f"{k} {s[k]}" for k in ("crashed", "aborted", "interrupted", "unsafe") if s.get(k)]
     if rec.get("status") != "ok":
         bits.insert(0, rec.get("status", "?").upper())
@@ -47,6 +48,18 @@ def pending(sweep: Sweep, store: Store, seeds: list[int] | None = None,
     return todo, len(cells) - len(todo)
 
 
+def resolve(cells: list[Cell]) -> tuple[list[Cell], list[tuple[Cell, NotYet]]]:
+    """(cells with their inputs resolved here, on the driver's machine; cells whose input is a record not stored
+    yet, with what each waits for)."""
+    ready, waiting = [], []
+    for c in cells:
+        try:
+            ready.append(Cell(c.sweep, c.kind, c.key, KINDS[c.kind].inputs(c.key)))
+        except NotYet as e:
+            waiting.append((c, e))
+    return ready, waiting
+
+
 def run(sweep: Sweep, executor, store: Store, seeds: list[int] | None = None, where: dict[str, Any] | None = None,
         out: TextIO = sys.stderr) -> Summary:
     if sweep.archive:
@@ -59,29 +72,36 @@ def run(sweep: Sweep, executor, store: Store, seeds: list[int] | None = None, wh
           + (f" ({sitl} on a SITL)" if sitl else ""), file=out, flush=True)
     if not todo:
         return summ
-    todo = [Cell(c.sweep, c.kind, c.key, KINDS[c.kind].inputs(c.key)) for c in todo]  # here, not on the node
     names = varying(todo)
     t0 = time.monotonic()
-    first = True
-    for cell, res, attempts in executor.map(todo):
-        if first:
-            print(f"  executor: {executor.describe()}", file=out, flush=True)
-            first = False
-        elapsed = time.monotonic() - t0
-        n = summ.ran + len(summ.failed) + 1
-        eta = elapsed / n * (len(todo) - n)
-        head = f"[{n + skipped:{len(str(summ.total))}d}/{summ.total}] {cell.label(70, names)}"
-        if isinstance(res, dict):
-            store.append(res)
-            summ.ran += 1
-            node = res["run"]["node"] if res["run"]["executor"] == "ray" else ""
-            print(f"{head}: {headline(res)} ({res['timing']['wall_s']:.1f} s{', ' + node if node else ''}"
-                  f"{f', attempt {attempts}' if attempts > 1 else ''}; left ~{eta / 60:.1f} min)", file=out,
-                  flush=True)
-        else:
-            why = "infrastructure" if isinstance(res, InfraError) else type(res).__name__
-            summ.failed.append(f"{cell.id}: {why}: {res}")
-            print(f"{head}: NO RECORD after {attempts} attempt(s) ({why}: {str(res)[:200]})", file=out, flush=True)
+    first, n, left = True, 0, todo
+    while left:  # in waves: a cell whose input is another pending cell's record waits for that cell
+        ready, waiting = resolve(left)
+        if not ready:
+            if not n:
+                raise waiting[0][1]  # nothing can run at all: a sweep that needs another's records first
+            summ.failed += [f"{c.id}: its input: {e}" for c, e in waiting]
+            break
+        left = [c for c, _ in waiting]
+        for cell, res, attempts in executor.map(ready):
+            if first:
+                print(f"  executor: {executor.describe()}", file=out, flush=True)
+                first = False
+            n += 1
+            eta = (time.monotonic() - t0) / n * (len(todo) - n)
+            head = f"[{n + skipped:{len(str(summ.total))}d}/{summ.total}] {cell.label(70, names)}"
+            if isinstance(res, dict):
+                store.append(res)
+                summ.ran += 1
+                node = res["run"]["node"] if res["run"]["executor"] == "ray" else ""
+                print(f"{head}: {headline(res)} ({res['timing']['wall_s']:.1f} s{', ' + node if node else ''}"
+                      f"{f', attempt {attempts}' if attempts > 1 else ''}; left ~{eta / 60:.1f} min)", file=out,
+                      flush=True)
+            else:
+                why = "infrastructure" if isinstance(res, InfraError) else type(res).__name__
+                summ.failed.append(f"{cell.id}: {why}: {res}")
+                print(f"{head}: NO RECORD after {attempts} attempt(s) ({why}: {str(res)[:200]})", file=out,
+                      flush=True)
     summ.wall_s = time.monotonic() - t0
     print(f"{sweep.name}: {summ.ran} records written in {summ.wall_s / 60:.1f} min"
           + (f", {len(summ.failed)} cells without a record (run again to retry them)" if summ.failed else ""),

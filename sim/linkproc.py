@@ -16,7 +16,8 @@ class LinkEmulator:
     constructor returns; ``vehicle_port`` / ``ground_port`` are the ports it bound. :meth:`stop` returns the
     counters of both directions (``{"down": {...}, "up": {...}}``)."""
 
-    def __init__(self, vehicle: str, ground: str, shape: str = "", startup_timeout: float = 10.0) -> None:
+    def __init__(self, vehicle: str, ground: str, shape: str = "", startup_timeout: float = 60.0) -> None:
+        # (60 s, as the simulator's: a Python start on a loaded 2-core machine took more than 10 s)
         self.proc = subprocess.Popen([sys.executable, "-m", "ksbo_sim.linkemu", "--vehicle", vehicle, "--ground",
                                       ground, "--shape", shape], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                      text=True)

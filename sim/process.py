@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import collections
 import select
+import random
 import signal
 import socket
 import subprocess
@@ -19,7 +20,20 @@ from ksbo_sim.errors import SimStartError
 
 
 def free_udp_port() -> int:
-    """A UDP port on 127.0.0.1 that is free right now (for the side that listens, e.g. the tuner)."""
+    """A UDP port on 127.0.0.1 that is free right now (for the side that listens, e.g. the tuner).
+
+    Drawn below Linux's ephemeral range (32768-60999): a port the kernel picked for bind(0) is handed out again to
+    the next process that binds one (the simulator's own socket, a ground station's), which then holds the port
+    the tuner was about to listen on."""
+    rng = random.Random()
+    for _ in range(200):
+        port = rng.randrange(20000, 32768)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return port
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])

@@ -21,6 +21,7 @@ from __future__ import annotations
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import tempfile
 import time
@@ -197,6 +198,27 @@ LASTING_PACK = {"px4": {"SIM_BAT_DRAIN": 1800.0},
                 "ardupilot": {"SIM_BATT_CAP_AH": 33.0, "BATT_CAPACITY": 33000.0}}
 
 
+def ports_taken(kind: str, n: int) -> list[str]:
+    """The ports instance ``n`` of ``kind`` binds (and its client listens on) that something holds right now.
+
+    TCP ports are probed with SO_REUSEADDR, as the autopilot binds them: a port whose last connections linger in
+    TIME_WAIT is free, one with a listener is not. UDP ports without it: any holder counts (pymavlink's ``udpin``
+    sets SO_REUSEADDR and would share the port unseen)."""
+    tcp = [5760 + 10 * n, 5762 + 10 * n, 5763 + 10 * n] if kind == "ardupilot" else []
+    udp = [5501 + 10 * n] if kind == "ardupilot" else [14540 + n, 14580 + n, 18570 + n]
+    taken = []
+    for family, ports in ((socket.SOCK_STREAM, tcp), (socket.SOCK_DGRAM, udp)):
+        for port in ports:
+            with socket.socket(socket.AF_INET, family) as s:
+                if family == socket.SOCK_STREAM:
+                    s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                try:
+                    s.bind(("127.0.0.1", port))
+                except OSError:
+                    taken.append(f"{'TCP' if family == socket.SOCK_STREAM else 'UDP'} {port}")
+    return taken
+
+
 def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str | Path | None = None,
                keep_params: bool = False, heartbeat_timeout: float = 60.0, scripting: bool = True) -> Sitl:
     """Start a SITL and wait until it sends a HEARTBEAT on loopback.
@@ -214,6 +236,11 @@ def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str 
         # PX4's startup script sends every instance from 10 up to one API port (14549), not 14540+N.
         raise ValueError(f"PX4 SITL instance {instance}: use 0..9 (instances from 10 up share one API port)")
     script = find_run_script(kind)
+    taken = ports_taken(kind, instance)
+    if taken:  # a second autopilot on them would die at once, and its start would find the first one's heartbeat
+        raise RuntimeError(f"{kind} SITL instance {instance}: {', '.join(taken)} already in use (another SITL or "
+                           "its client?); take another instance number (ksbo_sim.sitl_instances.start_claimed "
+                           "finds a free one)")
     own = workdir is None
     wd = Path(tempfile.mkdtemp(prefix=f"ksbo-{kind}-sitl-")) if own else Path(workdir)
     wd.mkdir(parents=True, exist_ok=True)
@@ -235,6 +262,8 @@ def start_sitl(kind: str, instance: int = 0, speedup: float = 1.0, workdir: str 
         _wait_heartbeat(sitl, heartbeat_timeout)
         for name, value in ({} if keep_params else LASTING_PACK[kind]).items():
             sitl.set_param(name, value)
+        if not sitl.alive:  # the heartbeats came from someone else's autopilot on these ports
+            raise RuntimeError(f"{kind} SITL exited with {sitl.proc.returncode}: {sitl.output()[-2000:]}")
     except BaseException:
         sitl.stop()
         raise

@@ -14,12 +14,11 @@ from __future__ import annotations
 import fcntl
 import itertools
 import os
-import socket
 import tempfile
 import time
 from pathlib import Path
 
-from ksbo_sim.sitl import Sitl, find_run_script, start_sitl
+from ksbo_sim.sitl import Sitl, find_run_script, ports_taken, start_sitl
 
 #: 1..9: PX4 instances from 10 up all send to one API port; instance 0 is left to an autopilot started by hand.
 NUMBERS = range(1, 10)
@@ -31,20 +30,6 @@ WAIT_S = 600.0
 # (its ports maybe still closing) is the last one this process tries again.
 _turn = itertools.count(os.getpid() % len(NUMBERS))
 _held: dict[int, Sitl | None] = {}  # lock fd -> the SITL started on its number (None while starting)
-
-
-def _ports_free(kind: str, n: int) -> bool:
-    """The ports a client binds or connects to for instance ``n`` are not taken by anything else."""
-    tcp = [5760 + 10 * n, 5762 + 10 * n, 5763 + 10 * n] if kind == "ardupilot" else []
-    udp = [5501 + 10 * n] if kind == "ardupilot" else [14540 + n, 14580 + n, 18570 + n]
-    for family, ports in ((socket.SOCK_STREAM, tcp), (socket.SOCK_DGRAM, udp)):
-        for port in ports:
-            with socket.socket(socket.AF_INET, family) as s:
-                try:
-                    s.bind(("127.0.0.1", port))
-                except OSError:
-                    return False
-    return True
 
 
 def release_stopped() -> None:
@@ -75,7 +60,7 @@ def claim(kind: str) -> tuple[int, int]:
             except BlockingIOError:
                 os.close(fd)
                 continue
-            if not _ports_free(kind, n):
+            if ports_taken(kind, n):
                 os.close(fd)
                 continue
             _held[fd] = None

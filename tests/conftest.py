@@ -13,6 +13,7 @@ import pytest  # noqa: E402
 
 from ksbo_sim.sitl import SitlNotFound  # noqa: E402
 from ksbo_sim.sitl_instances import release_stopped, start_claimed  # noqa: E402
+from sitl_scheduling import SITL_GROUP, OneSitlAtATime  # noqa: E402
 
 
 def sitl_or_skip(kind: str, speedup: float, **kw):
@@ -64,15 +65,25 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     """Tests that share a module-scoped fixture run on one worker (one autopilot start, one campaign); every other
     test is scheduled alone. Modules that fly autopilots go first and in-process ones last, so the long tests start
     early and the short ones fill the gaps at the end instead of one worker flying alone; `solo` ones first of
-    all, so the other worker waits for them once, at the start."""
+    all, so the other worker waits for them once, at the start. The groups of the tests that fly an autopilot are
+    named ``SITL_GROUP...``: one worker at a time flies them (:func:`pytest_xdist_make_scheduler`)."""
     modules: dict[str, list[pytest.Item]] = {}
     for item in items:
         modules.setdefault(str(item.path), []).append(item)
         shared = _shared_fixtures(item)
-        if shared:
-            item.add_marker(pytest.mark.xdist_group(f"{item.path.name}:{'+'.join(shared)}"))
+        group = f"{item.path.name}:{'+'.join(shared)}" if shared else None
+        if item.get_closest_marker("sitl") is not None:  # named so, even alone (xdist reads "]" after "@" as a
+            group = SITL_GROUP + (group or item.nodeid.replace("[", "(").replace("]", ")"))  # parameter's end)
+        if group:
+            item.add_marker(pytest.mark.xdist_group(group))
     kind = {path: _kind(its) for path, its in modules.items()}
     items.sort(key=lambda item: kind[str(item.path)])
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """``--dist loadgroup`` with at most one worker flying a SITL at a time (:mod:`sitl_scheduling`)."""
+    return OneSitlAtATime(config, log) if config.getvalue("dist") == "loadgroup" else None
 
 
 @pytest.hookimpl(hookwrapper=True, tryfirst=True)  # outside pytest-timeout: waiting for the other worker is free

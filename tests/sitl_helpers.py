@@ -41,8 +41,12 @@ def endpoint(sitl, port: int | None = None) -> Endpoint:
 
 
 def read_all(sitl, profile: str) -> tuple[dict[str, float], bool]:
-    """Every parameter of the vehicle (fresh download on a second connection) and whether it is armed."""
-    v = Vehicle.connect(endpoint(sitl), profile, sysid=250, compid=190)
+    """Every parameter of the vehicle (fresh download on a second connection) and whether it is armed.
+
+    By the PARAM protocol: ArduPilot's MAVLink FTP answers on another port only while the client of the port that
+    used it first is still connected (its FTP thread waits on that port's send buffer), so a second port's FTP
+    request after a campaign on the first waits ~11 s for nothing before the tool falls back to it anyway."""
+    v = Vehicle.connect(endpoint(sitl), profile, sysid=250, compid=190, param_ftp=False)
     try:
         hb = v.link.wait_heartbeat(5.0)
         return {n: p.value for n, p in v.params.table.items()}, bool(hb.base_mode & 128)
@@ -58,6 +62,21 @@ def param_diff(campaign: Path, now: dict[str, float]) -> dict[str, tuple[float, 
 
 def trials(campaign: Path) -> list[dict]:
     return [json.loads(p.read_text()) for p in sorted((campaign / "trials").glob("trial_*.json"))]
+
+
+#: Outcomes of a trial this computer spoiled, not the gains ("client": its setpoints went out late by the vehicle's
+#: clock; "telemetry": the lap could not be measured): the campaign flies it again (TrialOutcome.retry).
+SPOILED = ("client", "telemetry")
+
+
+def counted_trials(campaign: Path) -> list[dict]:
+    """The trials the campaign counted. A loaded machine may spoil one now and then: those are flown again and must
+    be nothing but SPOILED ones, the same gains flown next."""
+    recs = trials(campaign)
+    for i, r in enumerate(recs):
+        if r["outcome"] in SPOILED:
+            assert i + 1 < len(recs) and recs[i + 1]["gains"] == r["gains"], (r["outcome"], r["message"])
+    return [r for r in recs if r["outcome"] not in SPOILED]
 
 
 def accept_then_restore(sitl, d: Path, summary: dict, profile: str, port_args: list[str]) -> None:

@@ -66,6 +66,11 @@ def test_the_matrix_has_each_cases_newest_record_in_order():
     assert "guard tripped +11.5 s" in rows[1] and "+13.4 s: LOITER armed" in rows[1] and "11.6 s" in rows[1]
     assert "`restore` 0, `tune --resume` 0" in rows[1] and "all equal; mission 1 item(s)" in rows[1]
     assert "kill-mid-trial-pilot" in fault_matrix.report(recs).split("## Each case in full")[1]
+    lines = fault_matrix.matrix(recs).splitlines()
+    assert lines[0] == "| phase | cut, pilot | cut, no pilot | kill, pilot | kill, no pilot |" and len(lines) == 8
+    mid = next(x for x in lines if x.startswith("| mid-trial |")).split(" | ")
+    assert mid[1] == mid[2] == "not flown yet"
+    assert mid[3] == "exit -9 → `restore` 0, `tune --resume` 0; left LOITER armed; params equal"
 
 
 def test_the_wind_table_says_whether_the_inference_holds_what_blows():

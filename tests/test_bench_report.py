@@ -1,6 +1,7 @@
-"""ksbo-bench report: BENCHMARKS.md and the sweep pages are exactly what the stores and the remaining Markdown
-outputs give, each section names its command, records or machine and a headline table, the page stays within 300
-lines, a table follows the records, and a stale or unbuildable page is noticed."""
+"""ksbo-bench report: BENCHMARKS.md and the sweep pages are exactly what the stores give, each section names its
+command, records, machine and a headline table, the page stays within 300 lines, a table follows the records (one
+row per cell too), the pages list their cells in the declared order and name the earlier outputs kept as history,
+and a stale or unbuildable page is noticed."""
 
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from ksbo_bench.report import figures, legacy, pages
+from ksbo_bench import sweep as sweeps
+from ksbo_bench.report import figures, headlines, pages
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -30,14 +32,25 @@ def test_every_section_names_its_command_its_machine_and_a_table():
     for s in sections:
         title = s.splitlines()[0]
         if title == "More results":
-            assert s.count("](benchmarks/") >= 5
+            assert s.count("](benchmarks/pages/") >= 5 and s.count("](benchmarks/archive/") >= 5
             continue
-        assert "ksbo-bench run" in s or "scripts/" in s or "Script" in s, title  # the command that made it
-        assert "Machine" in s or "—" in s.split("\n\n")[1], title  # a machine line (or "command — machine")
+        assert "ksbo-bench run" in s, title  # the command that made it
+        assert "Machine" in s, title
         assert "\n|---|" in s, title  # a headline table
     for path, page in built.items():  # every sweep page links its sweep file and its records
         if path != pages.PAGE:
             assert page.startswith("# ") and "../sweeps/" in page and "../store/" in page, path
+    assert "scripts/" not in text  # every benchmark is a sweep now
+
+
+def test_a_page_lists_its_cells_in_the_declared_order_and_names_the_history_it_replaced():
+    sw = sweeps.load("training-vs-flown")
+    recs = list(reversed(pages.Store(sw.store).records()))
+    order = [r["key"].get("speedup") for r in pages.ordered(sw, recs)]
+    declared = [c.key["speedup"] for c in sw.cells()]
+    assert order[:len(declared)] == declared  # the declared cells first, a history record after them
+    drift = pages.page(sweeps.load("drift"), pages.Store(sweeps.load("drift").store).records())
+    assert "[benchmarks/archive/drift-planar-changes.md](../archive/drift-planar-changes.md)" in drift
 
 
 def test_a_table_follows_the_records():
@@ -53,13 +66,13 @@ def test_a_table_follows_the_records():
     assert "| nominal | 0.515 [0.510, 0.520], 1 none | 2/3 | 1 [1] |" in figures.table(recs, spec)
 
 
-def test_headline_keeps_the_introduction_and_the_first_table_only(tmp_path):
-    out = tmp_path / "results.md"
-    out.write_text("## Old title\n\nMachine: X. Script: `s`.\n\n### Speed\n\n| a | b |\n|---|---|\n| 1 | 2 |\n\n"
-                   "more prose\n\n| c |\n|---|\n| 3 |\n")
-    assert legacy.headline(out) == "Machine: X. Script: `s`.\n\n**Speed**\n\n| a | b |\n|---|---|\n| 1 | 2 |"
+def test_a_table_has_one_row_per_cell_and_a_headline_is_capped():
+    recs = [{"key": {"what": "gp", "op": op, "repeats": 5}, "timing": {"seconds": t}}
+            for op, t in (("fit-predict", 0.028), ("ml2", 0.114))]
+    text = figures.table(recs, {"rows": "cell", "hide": ["repeats"], "cells": ["timing.seconds:min-ms:seconds"]})
+    assert "| gp fit-predict | 28 ms |" in text and "| gp ml2 | 114 ms |" in text
     long = "| a |\n|---|\n" + "".join(f"| {i} |\n" for i in range(20))
-    assert legacy.cap(long).endswith(f"({20 - legacy.MAX_ROWS} more rows in the full output)")
+    assert headlines.cap(long).endswith(f"({20 - headlines.HEADLINE_ROWS} more rows on the full page)")
 
 
 def test_a_stale_page_fails_the_check(tmp_path, monkeypatch, capsys):
@@ -71,7 +84,7 @@ def test_a_stale_page_fails_the_check(tmp_path, monkeypatch, capsys):
 
 
 def test_an_unbuildable_page_is_a_one_line_error(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(legacy, "BENCH", tmp_path)  # no Markdown output anywhere
+    monkeypatch.setattr(pages, "_builders", lambda: {})  # a sweep names a builder the generator does not have
     assert pages.main(check=True) == 2
     err = capsys.readouterr().err
     assert "cannot build the pages" in err and len(err.strip().splitlines()) == 1

@@ -1,6 +1,7 @@
-"""The benchmark scripts and diagnostics: each starts and explains itself; the plant suite's report (ksbo_bench)
-calls a plant ahead / level / behind from the per-seed differences, its report counts the frozen tables, and the
-diagnostics under scripts/diag/ reproduce what the notes say they show."""
+"""The diagnostics under scripts/diag/ (the benchmarks themselves are sweeps: tests/test_bench_runner.py and
+test_bench_kinds.py): each starts and explains itself, and reproduces what the notes say it shows; the plant
+suite's report (ksbo_bench) calls a plant ahead / level / behind from the per-seed differences and counts the
+frozen tables."""
 
 from __future__ import annotations
 
@@ -26,10 +27,9 @@ def _load(name: str):
 
 @pytest.mark.parametrize(("script", "flag"), [("diag/oracle_ray.py", "--plot"), ("diag/monitor_backup.py", "--n"),
                                               ("diag/gain_slices.py", "--plot"), ("diag/safe_climb.py", "--seeds"),
-                                              ("diag/sitl_fixed_gains.py", "--reps"),
-                                              ("bench_tune_campaign.py", "--write"),
-                                              ("bench_short_campaign.py", "--reference")])
-def test_bench_scripts_start(script, flag):
+                                              ("diag/validation_baseline.py", "--repeats"),
+                                              ("diag/param_cache_radio.py", "--shape")])
+def test_diagnostics_start(script, flag):
     r = subprocess.run([sys.executable, str(SCRIPTS / script), "--help"], capture_output=True, text=True,
                        timeout=120, cwd=ROOT)
     assert r.returncode == 0, r.stderr

@@ -101,6 +101,7 @@ def test_ardupilot_validation_manoeuvres(ardupilot_sitl, tmp_path):
     _check(_fly_all(ardupilot_sitl, "ardupilot-copter", tmp_path), (6.0, 4.0))
 
 
+@pytest.mark.solo  # a 5x PX4 in OFFBOARD: the tuner needs the two cores beside the SITL
 def test_px4_validation_manoeuvres(px4_sitl, tmp_path):
     assert px4_sitl.set_param("COM_RCL_EXCEPT", 4, int32=True) == 4
     _check(_fly_all(px4_sitl, "px4-copter", tmp_path), (6.0, 4.0))

@@ -94,6 +94,23 @@ def test_console_and_report_give_the_verdict_per_manoeuvre(campaign):
         assert j.verdict in ("better", "no measurable change", "worse")
 
 
+def test_the_realtime_benchmark_reads_the_campaigns_validation(campaign):
+    """The campaign cell's ``validation`` analysis (the realtime-campaign sweep): the campaign's own verdicts per
+    manoeuvre, every validation flight counted, the flights by label, the peak lean of each step flight."""
+    from ksbo_bench.kinds.campaign_validation import figures
+
+    d, _, _, _ = campaign
+    fig = figures(d)
+    entries = ValidationJournal(d / "validation.jsonl").entries
+    verdicts = judge_pairs(entries)
+    assert fig["validation_flights"] == len(entries) and fig["flights_by_label"]["confirm"] == 1
+    assert {m: v["verdict"] for m, v in fig["verdicts"][verdicts[0].pair].items()} == \
+        {m: j.verdict for m, j in verdicts[0].judged.items()}
+    leans = [x for xs in fig["validation_step_leans"].values() for x in xs]
+    assert leans and all(0 < x < 45 for x in leans)  # a 3 m step in this profile: a lean, never a flip
+    assert len(fig["baseline_rms"]) >= 1 and fig["search_end_text"].startswith(("budget", "early stop"))
+
+
 def test_the_vehicle_ends_with_the_snapshot_gains(campaign):
     _, sim, _, out = campaign
     assert fresh_read(sim, NAMES, None) == pytest.approx(out["before"], rel=1e-6)

@@ -56,8 +56,13 @@ KINDS = {k.name: k for k in (
     Kind("paper", "ksbo_bench.kinds.paper", ("setting", "method", "seed"),
          "the paper's comparison on the planar task: its prior, its budget, its re-flight"),
     Kind("campaign", "ksbo_bench.kinds.campaign", ("vehicle", "seed"),
-         "a full `ksbo-mav tune` campaign on a fresh vehicle (ArduCopter / PX4 SITL, our JSBSim copter over "
-         "MAVLink), then named gains re-flown in turn on it"),
+         "a full `ksbo-mav tune` campaign on a fresh vehicle (ArduCopter / PX4 SITL, our JSBSim copter or planar "
+         "vehicle over MAVLink), then named gains re-flown in turn on it"),
+    Kind("flights", "ksbo_bench.kinds.flights", ("vehicle", "ways"),
+         "fixed gain sets flown several ways on one fresh SITL, in turn: streamed, on board, by a separate client, "
+         "the validation manoeuvres"),
+    Kind("evaluation", "ksbo_bench.kinds.evaluate", ("what",),
+         "one deterministic computation that is not a campaign (ksbo_bench.evaluations)"),
     Kind("fault", "ksbo_bench.kinds.fault", ("fault", "phase", "pilot"),
          "one case of the fault matrix on ArduCopter SITL: the link cut or the tuner killed at a phase of a short "
          "campaign, what the vehicle did, what continued it, the parameters against the snapshot"),

@@ -8,35 +8,44 @@ Key: ``vehicle``, ``seed``; ``tune_args`` (a list: what `tune` gets besides the 
 ``refly_after`` (also the best flown gains after these flights), ``reference`` (gains re-flown as "long": a table
 ``gains`` of parameter values, or the recorded ``best_values`` of a sweep's cell — ``sweep``, the values its key
 must have (``key``) and the names whose values must equal this cell's (``match``, e.g. ["vehicle",
-"sitl_params"]); resolved on the driver's machine, the newest such record),
-``change_at`` / ``change_params`` (a SITL condition changed mid-campaign), ``keep`` (keep the working folder);
-the vehicle's own values (vehicles.py).
+"sitl_params"]); resolved on the driver's machine, the newest such record), ``export`` (keep in the record the
+files a warm start reads: campaign.json, result.json, journal.jsonl, widen.jsonl), ``warm_start`` (the same kind of
+reference to an exported record: `tune --warm-start` from it), ``change_at`` / ``change_params`` (a SITL condition
+changed mid-campaign), ``analyses`` (ksbo_bench.kinds.campaign_analyses), ``check_params`` (our simulator: read
+the parameters left changed too; SITLs always), ``keep`` (keep the working folder); the vehicle's own values
+(vehicles.py: ``build``, ``speedup``, ``sitl_params``, ``personality``, ``sim_args``, ``link``).
 
 Figures: flights (as the README counts them: the baseline is flight 1, every prior, re-flight and confirmation
 counts), the campaign's safety (aborted and crashed by the gains, interrupted by the vehicle or link, P < 0), every
 flight's lap-2 RMS, the re-flown RMS of each set, the cut (1 − R / B) and, with a reference, the share of the
-reference's cut and the flight at which the best-so-far gains re-fly within 90 % of it.
+reference's cut and the flight at which the best-so-far gains re-fly within 90 % of it; what the console said
+(ksbo_bench.kinds.campaign_figures). A campaign the tool stopped by its own rule (exit 3: the drift test, a pack
+to swap) is a result with status "stopped".
 """
 
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
-from ksbo_bench.cell_errors import InfraError
-from ksbo_bench.kinds.independent_refly import changed_params, mean, refly_in_turn
-from ksbo_bench.kinds.vehicles import VEHICLES, change_at, fresh_vehicle, is_sitl
-from ksbo_bench.cell_errors import SweepError
+from ksbo_bench.cell_errors import InfraError, NotYet, SweepError
+from ksbo_bench.kinds import campaign_analyses
+from ksbo_bench.kinds.campaign_figures import best_so_far, console_figures, reached_at, refly_figures
+from ksbo_bench.kinds.independent_refly import changed_params, refly_in_turn
+from ksbo_bench.kinds.work_folder import in_work_folder
+from ksbo_bench.kinds.vehicles import OURS, VEHICLES, change_at, fresh_vehicle, is_sitl
+
+__all__ = ["best_so_far", "check", "inputs", "resources", "run"]
 
 N_CANDIDATES = 4
 #: Journal outcomes of a trial the monitor stopped because of the gains (a crash is counted apart).
 GAIN_ABORTS = ("fence", "tilt", "track")
+#: The files of a finished campaign a warm start reads (``export``).
+EXPORTED = ("campaign.json", "result.json", "journal.jsonl", "widen.jsonl")
 
 
 def check(key: dict[str, Any]) -> None:
@@ -44,135 +53,138 @@ def check(key: dict[str, Any]) -> None:
         raise SweepError(f"vehicle must be one of {', '.join(VEHICLES)}, not {key['vehicle']!r}")
     if not isinstance(key.get("tune_args", []), list):
         raise SweepError("tune_args is a list of strings, e.g. [\"--budget\", \"10\"]")
+    if key.get("link") and key["vehicle"] in OURS:
+        raise SweepError("link: the link emulator stands between a SITL and the tuner (vehicle ardupilot or px4)")
+    bad = [a for a in key.get("analyses", []) if a not in campaign_analyses.ANALYSES]
+    if bad:
+        raise SweepError(f"unknown analysis {bad[0]!r}; known: {', '.join(campaign_analyses.ANALYSES)}")
 
 
 def resources(key: dict[str, Any]) -> dict[str, float]:
     return {"sitl": 1} if is_sitl(key) else {}
 
 
-def reference_gains(key: dict[str, Any]) -> dict[str, float]:
-    """The gains the cell's ``reference`` names: given, or the newest recorded ``best_values`` of a sweep's cell
-    whose key has the ``key`` values and this cell's values of ``match``."""
-    ref = key["reference"]
-    if "gains" in ref:
-        return dict(ref["gains"])
+def recorded(key: dict[str, Any], ref: dict[str, Any], field: str) -> Any:
+    """``field`` of ``result`` in the newest record of ``ref["sweep"]`` whose key has the ``ref["key"]`` values and
+    this cell's values of ``ref["match"]``. NotYet when that sweep holds none (yet)."""
     from ksbo_bench import sweep as sweeps
     from ksbo_bench.store import Store
 
     sw = sweeps.load(ref["sweep"])
     want = {**{m: key.get(m) for m in ref.get("match", [])}, **ref.get("key", {})}
-    found = [r for r in Store(sw.store) if r["result"].get("best_values")
+    found = [r for r in Store(sw.store) if r["result"].get(field)
              and all(r["key"].get(k) == v for k, v in want.items())]
     if not found:
-        raise SweepError(f"reference: no record of {sw.name} with best_values and {json.dumps(want)}")
-    return found[-1]["result"]["best_values"]
+        raise NotYet(f"no record of {sw.name} with {field} and {json.dumps(want)} (run those cells first)")
+    return found[-1]["result"][field]
+
+
+def reference_gains(key: dict[str, Any]) -> dict[str, float]:
+    """The gains the cell's ``reference`` names: given, or another cell's recorded ``best_values``."""
+    ref = key["reference"]
+    return dict(ref["gains"]) if "gains" in ref else recorded(key, ref, "best_values")
 
 
 def inputs(key: dict[str, Any]) -> dict[str, Any]:
-    return {"reference": reference_gains(key)} if "reference" in key else {}
-
-
-def best_so_far(entries: list[dict], names: list[str]) -> list[tuple[int, dict[str, float], float]]:
-    """[(flight number, gains, its flown lap RMS)] each time the best flown gains changed (baseline excluded)."""
-    out: list[tuple[int, dict[str, float], float]] = []
-    best = None
-    for k, e in enumerate(entries):
-        if k == 0 or e["kind"] == "baseline" or e["outcome"] != "ok" or not e.get("rms"):
-            continue
-        if best is None or e["rms"] < best:
-            best = e["rms"]
-            out.append((k + 1, dict(zip(names, e["x"])), e["rms"]))
+    out: dict[str, Any] = {}
+    if "reference" in key:
+        out["reference"] = reference_gains(key)
+    if "warm_start" in key:
+        out["warm_start"] = recorded(key, key["warm_start"], "folder")
     return out
 
 
-def _tune(d: Path, conn: list[str], key: dict[str, Any]) -> subprocess.CompletedProcess:
+def _tune(d: Path, conn: list[str], key: dict[str, Any], extra: list[str]) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *conn, "--seed", str(key["seed"]),
-                           "--end", "hold", "--json", *map(str, key.get("tune_args", []))],
+                           "--end", "hold", "--json", *extra, *map(str, key.get("tune_args", []))],
                           capture_output=True, text=True, timeout=float(key.get("timeout_s", 7200)))
 
 
 def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The cell's record parts; its working folder (the campaign, its logs, the SITL's) is removed after a
-    campaign that ended normally, kept and named in ``result.kept`` otherwise (a few MB each: 1,000 cells would
-    fill a node's /tmp)."""
-    work = Path(tempfile.mkdtemp(prefix="ksbo-bench-campaign-"))
-    try:
-        out = _run(key, (inputs or {}).get("reference"), work)
-    except BaseException:
-        print(f"campaign cell: its folder is kept: {work}", file=sys.stderr)
-        raise
-    if out["status"] == "ok" and not key.get("keep"):
-        shutil.rmtree(work, ignore_errors=True)
-    else:
-        out["result"]["kept"] = str(work)
-    return out
+    """The cell's record parts; its working folder is removed after a campaign that ended normally (or stopped by
+    the tool's own rule), kept and named in ``result.kept`` otherwise (ksbo_bench.kinds.work_folder)."""
+    return in_work_folder("campaign", _run, key, inputs)
 
 
-def _run(key: dict[str, Any], ref: dict[str, float] | None, work: Path) -> dict[str, Any]:
+def _earlier(work: Path, files: dict[str, str] | None) -> list[str]:
+    """`tune --warm-start DIR` with the exported files of the earlier campaign written to DIR."""
+    if not files:
+        return []
+    d = work / "earlier"
+    d.mkdir()
+    for name, text in files.items():
+        (d / name).write_text(text)
+    return ["--warm-start", str(d)]
+
+
+def _safety(entries: list[dict]) -> dict[str, int]:
+    """The journal's outcomes (ksbo_mav.mav.outcome.TrialOutcome): crash; fence, tilt, track (the gains)."""
+    return {"crashed": sum(e["outcome"] == "crash" for e in entries),
+            "aborted": sum(e["outcome"] in GAIN_ABORTS for e in entries),
+            "interrupted": sum(e["kind"] == "failed" for e in entries),
+            "unsafe": sum(e["kind"] == "opt" and e.get("P") is not None and e["P"] < 0 for e in entries)}
+
+
+def _run(key: dict[str, Any], inp: dict[str, Any], work: Path) -> dict[str, Any]:
     d = work / "campaign"
     result: dict[str, Any] = {}
     timing: dict[str, Any] = {}
-    with fresh_vehicle(key, work) as (conn, ep, sitl):
+    with fresh_vehicle(key, work) as v:
         t0 = time.time()
-        with change_at(key, d / "journal.jsonl", sitl, result):
-            r = _tune(d, conn, key)
+        with change_at(key, d / "journal.jsonl", v.sitl, result):
+            r = _tune(d, v.conn, key, _earlier(work, inp.get("warm_start")))
         timing["campaign_s"] = round(time.time() - t0, 1)
-        if sitl is not None and not sitl.alive:
-            raise InfraError(f"the SITL died during the campaign: {sitl.output()[-300:]}")
+        if v.sitl is not None and not v.sitl.alive:
+            raise InfraError(f"the SITL died during the campaign: {v.sitl.output()[-300:]}")
         journal = d / "journal.jsonl"
-        if r.returncode != 0 and not journal.exists():  # no flight made: the tool refused (a bad option, no link)
+        if r.returncode not in (0, 3) and not journal.exists():  # no flight made: the tool refused, or no link
             err = (r.stderr.strip().splitlines() or ["?"])[-1][:300]
             if "link" in err.lower() or "heartbeat" in err.lower():
                 raise InfraError(f"tune: {err}")
             return {"status": "failed", "result": {"error": err, "rc": r.returncode}, "timing": timing}
-        entries = [json.loads(x) for x in journal.read_text().splitlines() if x.strip()]
+        entries = [json.loads(x) for x in journal.read_text().splitlines() if x.strip()] if journal.exists() else []
         out = json.loads((d / "result.json").read_text()) if (d / "result.json").exists() else {}
-        # the journal's outcomes (ksbo_mav.mav.outcome.TrialOutcome): crash; fence, tilt, track (the gains)
-        safety = {"crashed": sum(e["outcome"] == "crash" for e in entries),
-                  "aborted": sum(e["outcome"] in GAIN_ABORTS for e in entries),
-                  "interrupted": sum(e["kind"] == "failed" for e in entries),
-                  "unsafe": sum(e["kind"] == "opt" and e.get("P") is not None and e["P"] < 0 for e in entries)}
         kinds = {k: sum(e["kind"] == k for e in entries) for k in sorted({e["kind"] for e in entries})}
         result.update(rc=r.returncode, rms_per_flight=[round(e["rms"], 4) if e.get("rms") else None for e in entries],
-                      search_end=out.get("search_end"))
-        if r.returncode != 0:
+                      search_end=out.get("search_end"), **console_figures(r.stderr))
+        if r.returncode not in (0, 3):
             result["error"] = (r.stderr.strip().splitlines() or ["?"])[-1][:300]
         best = out.get("best")
         if best and key.get("refly", 3):
-            names = list(best["values"])
-            found = best_so_far(entries, names)
-            cands = found[-key.get("candidates", N_CANDIDATES):] if key.get("candidates", N_CANDIDATES) else []
-            result["candidates"] = [(k, round(rms, 4)) for k, _, rms in cands]
-            gains = {"rec": best["values"], **{f"f{k}": g for k, g, _ in cands}}
-            for k in key.get("refly_after", []):
-                upto = [g for j, g, _ in found if j <= k]
-                if upto:
-                    gains[f"after{k}"] = upto[-1]
-            if ref:
-                gains["long"] = ref
-            t1 = time.time()
-            result["reflown"] = refly_in_turn(d, ep, gains, key.get("refly", 3))
-            timing["refly_s"] = round(time.time() - t1, 1)
-            _figures(result, cands, len(entries))
+            _refly(key, inp.get("reference"), d, v.ep, best, entries, result, timing)
         if best:
             result["best_values"] = best["values"]
-        if sitl is not None:
-            result["changed_params"] = changed_params(sitl, d)
-    flights = {"total": len(entries), **kinds, "reflown": sum(len(v) for v in result.get("reflown", {}).values())}
-    return {"status": "ok" if r.returncode == 0 else "failed", "flights": flights, "safety": safety,
-            "result": result, "timing": timing}
+        if v.sitl is not None or key.get("check_params"):
+            stack = key["vehicle"] if v.sitl is not None else key.get("personality", "ours")
+            result["changed_params"] = changed_params(v.direct, stack, d)
+    if v.info.get("link"):
+        result["link"] = v.info["link"]
+    if "warm_start" in key and "long" in result.get("reflown", {}):
+        result["reached_at"] = reached_at(result["rms_per_flight"], result["reflown"]["long"])
+    if key.get("export") and best:
+        result["folder"] = {n: (d / n).read_text() for n in EXPORTED if (d / n).exists()}
+    campaign_analyses.run(key, d, result)
+    flights = {"total": len(entries), **kinds, "reflown": sum(len(x) for x in result.get("reflown", {}).values())}
+    status = {0: "ok", 3: "stopped"}.get(r.returncode, "failed")
+    return {"status": status, "flights": flights, "safety": _safety(entries), "result": result, "timing": timing}
 
 
-def _figures(result: dict[str, Any], cands: list, n_flights: int) -> None:
-    """cut, and against a reference: the target, the share of its cut, the flights to 90 % of it."""
-    m = {k: mean(v) for k, v in result["reflown"].items()}
-    if m.get("rec") is None or not m.get("baseline"):
-        return
-    result["cut"] = 1 - m["rec"] / m["baseline"]
-    if m.get("long") is not None:
-        target = m["baseline"] - 0.9 * (m["baseline"] - m["long"])
-        result["target_rms"] = target
-        hits = [k for k, _, _ in cands if m.get(f"f{k}") is not None and m[f"f{k}"] <= target]
-        result["flights_to_90"] = min(hits) if hits else (n_flights if m["rec"] <= target else None)
-        if m["baseline"] != m["long"]:
-            result["share_of_long"] = (m["baseline"] - m["rec"]) / (m["baseline"] - m["long"])
+def _refly(key: dict[str, Any], ref: dict[str, float] | None, d: Path, ep, best: dict, entries: list[dict],
+           result: dict[str, Any], timing: dict[str, Any]) -> None:
+    """The re-fly in turn: baseline, recommendation, best-so-far gains, ``refly_after`` gains, the reference."""
+    names = list(best["values"])
+    found = best_so_far(entries, names)
+    n = key.get("candidates", N_CANDIDATES)
+    cands = found[-n:] if n else []
+    result["candidates"] = [(k, round(rms, 4)) for k, _, rms in cands]
+    gains = {"rec": best["values"], **{f"f{k}": g for k, g, _ in cands}}
+    for k in key.get("refly_after", []):
+        upto = [g for j, g, _ in found if j <= k]
+        if upto:
+            gains[f"after{k}"] = upto[-1]
+    if ref:
+        gains["long"] = ref
+    t1 = time.time()
+    result["reflown"] = refly_in_turn(d, ep, gains, key.get("refly", 3))
+    timing["refly_s"] = round(time.time() - t1, 1)
+    refly_figures(result, cands, len(entries))

@@ -49,24 +49,19 @@ def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3) -
         v.close()
 
 
-def changed_params(sitl, d: Path) -> list[str]:
-    """The SITL's parameters that differ from the campaign's snapshot (those the autopilot updates itself aside)."""
-    from ksbo_mav.mav.link import Endpoint
+def changed_params(ep, stack: str, d: Path) -> list[str]:
+    """The vehicle's parameters (read at Endpoint ``ep``, a direct link) that differ from the snapshot of the
+    campaign in ``d``, those the ``stack`` autopilot updates itself aside."""
     from ksbo_mav.mav.params import load_snapshot
-    from ksbo_mav.mav.stacks import autopilot_updated
     from ksbo_mav.mav.vehicle import Vehicle
 
-    ep = (Endpoint("tcp", "127.0.0.1", sitl.tcp_port) if sitl.kind == "ardupilot"
-          else Endpoint("udp", "127.0.0.1", sitl.udp_port))
     snap = load_snapshot(d)
     v = Vehicle.connect(ep, snap.profile, sysid=250, compid=190)
     try:
         now = {k: p.value for k, p in v.params.table.items()}
     finally:
         v.close()
-    return sorted(k for k, (val, _) in snap.params.items()
-                  if not autopilot_updated(sitl.kind, k)
-                  and (k not in now or abs(now[k] - val) > 1e-6 * max(1.0, abs(val))))
+    return sorted(snap.off(now))
 
 
 def mean(xs: list[Any]) -> float | None:

@@ -60,8 +60,8 @@ def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, 
     vkey = {"vehicle": "ardupilot", "speedup": key.get("speedup", 10.0), "sitl_params": sitl_params(key)}
     with tempfile.TemporaryDirectory(prefix="ksbo-bench-wind-") as tmp:
         d = Path(tmp) / "campaign"
-        with fresh_vehicle(vkey, Path(tmp)) as (conn, _ep, _sitl):
-            r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *conn, *TUNE,
+        with fresh_vehicle(vkey, Path(tmp)) as fresh:
+            r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *fresh.conn, *TUNE,
                                 "--seed", str(key.get("seed", 0))], capture_output=True, text=True, timeout=3600)
         journal = [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()] \
             if (d / "journal.jsonl").exists() else []

@@ -61,6 +61,29 @@ def _params(res: dict[str, Any]) -> str:
     return text + f"; mission {res.get('mission_items_at_end')} item(s)"
 
 
+def _cell(r: dict[str, Any] | None) -> str:
+    """One case in the matrix: the tuner's exit, what continued it, the mode left, the parameters."""
+    if r is None:
+        return "not flown yet"
+    res = r["result"]
+    if not res.get("reached"):
+        return f"not reached: {res.get('note', '')}"
+    left = res.get("left") or {}
+    where = f"{left.get('mode')} {'armed' if left.get('armed') else 'landed'}" if left else "?"
+    diff = res.get("params_vs_snapshot")
+    params = "not read" if diff is None else "equal" if not diff else f"{len(diff)} differ"
+    return f"exit {res.get('tune_exit')} → {_then(res)}; left {where}; params {params}"
+
+
+def matrix(recs: list[dict[str, Any]]) -> str:
+    """The matrix itself: a row per phase, a column per fault and pilot (each case's newest record)."""
+    latest = {(r["key"]["fault"], r["key"]["phase"], r["key"]["pilot"]): r for r in recs}
+    cols = [(f, who) for f in FAULTS for who in (True, False)]
+    head = "| phase | " + " | ".join(f"{f}, {'pilot' if who else 'no pilot'}" for f, who in cols) + " |"
+    rows = [f"| {p} | " + " | ".join(_cell(latest.get((f, p, who))) for f, who in cols) + " |" for p in PHASES]
+    return "\n".join([head, "|---" * (len(cols) + 1) + "|", *rows])
+
+
 def table(recs: list[dict[str, Any]]) -> str:
     head = ("| case | at the fault | the vehicle after it (vehicle time) | trial gains on after it (vehicle time) "
             "| left | tuner exit | then (exit) | validation | params vs snapshot |\n"
@@ -98,4 +121,5 @@ def details(recs: list[dict[str, Any]]) -> str:
 
 
 def report(recs: list[dict[str, Any]]) -> str:
-    return "\n\n".join(["**The matrix** (each case's newest record)", table(recs), details(recs)])
+    return "\n\n".join([matrix(recs), "**Each case** (its newest record; history and what was tried: "
+                        "[benchmarks/notes/stops.md](../notes/stops.md))", table(recs), details(recs)])

@@ -10,7 +10,9 @@ A figure is a dotted path into the record (``safety.crashed``, ``timing.seconds`
     cells = ["EP:median-range:E[P]", "safety.crashed:zero-share:crash-free seeds"]
     where = { mode = "monitor" }        # optional: only records with these key values
 
-Each cell is FIGURE:SUMMARY[:HEADER] over the records of the row (and column): the seeds, usually.
+Each cell is FIGURE:SUMMARY[:HEADER] over the records of the row (and column): the seeds, usually. ``rows =
+"cell"``: one row per record, named by its key's values (those in ``hide`` left out), for sweeps whose cells
+differ in more than one value (the speed sweep's timings).
 """
 
 from __future__ import annotations
@@ -49,6 +51,11 @@ def _median_range(vs: list[Any], fmt: str = "{:.3f}") -> str:
     return s + (f", {missing} none" if missing else "")
 
 
+def _seconds(v: float) -> str:
+    """A duration: ms below a second, else s (3 significant digits)."""
+    return f"{v * 1e3:.3g} ms" if v < 1 else f"{v:.3g} s"
+
+
 SUMMARIES: dict[str, Callable[[list[Any]], str]] = {
     "median-range": _median_range,
     "pct-median-range": lambda vs: _median_range([None if x is None else 100 * x for x in vs], "{:+.0f} %"),
@@ -57,12 +64,23 @@ SUMMARIES: dict[str, Callable[[list[Any]], str]] = {
     "zero-share": lambda vs: f"{sum(1 for x in vs if x == 0)}/{len(vs)}",
     "sum": lambda vs: f"{sum(_nums(vs)):g}",
     "n": lambda vs: f"{len(vs)}",
-    "min-ms": lambda vs: f"{min(_nums(vs)) * 1e3:.3g} ms" if _nums(vs) else "–",
+    "min-ms": lambda vs: _seconds(min(_nums(vs))) if _nums(vs) else "–",
     "min-x": lambda vs: f"{min(_nums(vs)):,.0f}x" if _nums(vs) else "–",
     "max-x": lambda vs: f"{max(_nums(vs)):,.0f}x" if _nums(vs) else "–",
     "list": lambda vs: ", ".join("–" if x is None else f"{x:g}" if isinstance(x, (int, float)) else str(x)
                                  for x in vs),
 }
+
+
+def _per_record(rs: list[dict[str, Any]], spec: dict[str, Any]) -> str:
+    hide = set(spec.get("hide", []))
+    cells = [c.split(":") for c in spec["cells"]]
+    lines = ["| cell | " + " | ".join(p[2] if len(p) > 2 else p[0] for p in cells) + " |",
+             "|" + "---|" * (len(cells) + 1)]
+    for r in rs:
+        name = " ".join(str(v) for k, v in r["key"].items() if k not in hide and not isinstance(v, (dict, list)))
+        lines.append(f"| {name} | " + " | ".join(SUMMARIES[p[1]]([value(r, p[0])]) for p in cells) + " |")
+    return "\n".join(lines)
 
 
 def _order(values: list[Any]) -> list[Any]:
@@ -78,6 +96,8 @@ def table(recs: list[dict[str, Any]], spec: dict[str, Any], order: dict[str, lis
     sweep's declared order (else first seen)."""
     where = spec.get("where", {})
     rs = [r for r in recs if all(r["key"].get(k) == v for k, v in where.items())]
+    if spec["rows"] == "cell":
+        return _per_record(rs, spec)
     rows_by, cols_by = spec["rows"], spec.get("columns")
     order = order or {}
     rows = [v for v in order.get(rows_by, []) if any(r["key"].get(rows_by) == v for r in rs)] or \

@@ -100,3 +100,34 @@ class VehicleClock:
             if now - start_wall > guard:
                 raise ClockStalled(f"{seconds:g} s of vehicle time took more than {guard:.0f} s of wall time "
                                    f"(vehicle clock at {self.rate:.2f}x real time)")
+
+
+class StreamLateness:
+    """How late each setpoint of a stream went out: vehicle ms past its step's time, appended to ``out`` (None:
+    not kept).
+
+    A setpoint's lateness is the newest stamp received when it went out, minus its step's time. Sent while this
+    computer was still working through a backlog (behind the vehicle: :attr:`~ksbo_mav.mav.link.Link.behind`), that
+    newest stamp is itself old; once the backlog is gone the newest stamp is the vehicle's time again, and each such
+    setpoint's lateness becomes what the vehicle's clock read when it went out, counted back from there at the
+    clock's rate (never less than first measured)."""
+
+    def __init__(self, clock: VehicleClock, out: list[float] | None) -> None:
+        self.clock, self.out = clock, out
+        self._while_behind: list[tuple[int, float, float]] = []  # (index in out, step ms, wall time sent)
+
+    def sent(self, step_ms: float, behind: bool) -> None:
+        if self.out is None:
+            return
+        self.out.append(max(0.0, float(self.clock.last_ms - step_ms)))
+        if behind:
+            self._while_behind.append((len(self.out) - 1, step_ms, time.monotonic()))
+
+    def settle(self, behind: bool) -> None:
+        """After a pump: once caught up (not ``behind``), the setpoints sent while behind get their lateness."""
+        if behind or not self._while_behind:
+            return
+        c, now = self.clock, time.monotonic()
+        for i, step_ms, wall in self._while_behind:
+            self.out[i] = max(self.out[i], c.last_ms - (now - wall) * 1000.0 * c.rate - step_ms)
+        self._while_behind.clear()

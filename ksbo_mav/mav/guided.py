@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ksbo_mav.errors import ClockStalled, LinkLost, PreflightError
+from ksbo_mav.mav.clock import StreamLateness
 from ksbo_mav.mav.commands import Commander
 from ksbo_mav.mav.link import Link
 from ksbo_mav.mav.mission import FRAME_LOCAL_NED, MASK_POS, MASK_POS_VEL_ACC
@@ -35,6 +36,7 @@ from ksbo_mav.mav.telemetry import Telemetry
 CMD_SIM_STEP = 31011  # built-in simulator, lockstep: advance p1 seconds
 KEEPALIVE_S = 0.05  # wall seconds between re-sent hold targets
 PRESTREAM_S = 1.5  # vehicle seconds of setpoints before asking PX4 for OFFBOARD (it wants > 1 s)
+STREAM_PUMP_LIMIT = 8  # messages read between two looks at the due setpoints (~2 steps of telemetry at 50 Hz)
 
 
 class Guided:
@@ -161,11 +163,12 @@ class Guided:
                resend_s: float = 0.1, lag_ms: list[float] | None = None, lead_ms: float = 0.0) -> int:
         """Stream setpoints ``setpoint(j)`` for j = 0..n, each sent once when the vehicle clock reaches
         ``t0 + j*dt_ms`` (t0 = now; stamped with that time plus ``lead_ms``, the time its content is for), none
-        skipped: if the client falls behind, the due ones
-        go out in order. ``on_sample`` sees every new LOCAL_POSITION_NED (it may raise to abort). Returns t0 once a
-        sample stamped at or after ``t0 + n*dt_ms`` has arrived. ``lag_ms`` (if given) receives, per step, how
-        far the vehicle's newest received stamp already was past the step's time when it went out: a slow client
-        (or machine) shows up here, a lossy link in the sequence numbers.
+        skipped: if the client falls behind, the due ones go out in order, between the messages of the backlog
+        (never after all of it). ``on_sample`` sees every new LOCAL_POSITION_NED (it may raise to abort). Returns
+        t0 once a sample stamped at or after ``t0 + n*dt_ms`` has arrived. ``lag_ms`` (if given) receives, per
+        step, how far the vehicle's clock already was past the step's time when it went out
+        (:class:`~ksbo_mav.mav.clock.StreamLateness`): a slow client (or machine) shows up here, a lossy link in
+        the sequence numbers.
 
         In lockstep each setpoint is one simulator step; a setpoint with no answer within ``resend_s`` (wall
         time) is re-sent with its stamp (a lost packet must not stall the simulator; the simulator steps a
@@ -179,6 +182,7 @@ class Guided:
         self.tel.on_sample.append(fresh.append)
         self.hold_at(None)
         j, last_send, thinned0 = 0, time.monotonic(), self.radio.thinned
+        late = StreamLateness(clock, lag_ms)
         try:
             while True:
                 due = min(n, int((clock.now_ms() - t0) // dt_ms))
@@ -189,8 +193,7 @@ class Guided:
                         continue
                     pos, vel, acc = setpoint(j)
                     self.send(pos, vel, acc, t_ms=int(t0 + j * dt_ms + lead_ms))
-                    if lag_ms is not None:
-                        lag_ms.append(max(0.0, float(clock.last_ms - (t0 + j * dt_ms))))
+                    late.sent(t0 + j * dt_ms, self.link.behind)
                     j, last_send = j + 1, time.monotonic()
                 while fresh:
                     on_sample(fresh.pop(0))
@@ -202,7 +205,10 @@ class Guided:
                     pos, vel, acc = setpoint(j - 1)
                     self.send(pos, vel, acc, t_ms=int(t0 + (j - 1) * dt_ms + lead_ms))
                     last_send = time.monotonic()
-                self.link.pump(0.002)
+                # A few messages at a time: behind the vehicle, the due setpoints go out between them instead of
+                # after the whole backlog (PX4 leaves OFFBOARD when its stream pauses for COM_OF_LOSS_T)
+                self.link.pump(0.002, limit=STREAM_PUMP_LIMIT)
+                late.settle(self.link.behind)
                 self.check_link()
                 stalled = time.monotonic() - clock.last_wall
                 if stalled > self.heartbeat_timeout:

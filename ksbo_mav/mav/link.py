@@ -31,6 +31,8 @@ MAV_TYPE_GCS = 6
 #: several a second, and a key that verifies none of them never will.
 WRONG_KEY_FRAMES = 10
 MAV_AUTOPILOT_INVALID = 8
+#: While :meth:`Link.pump` works through a backlog, the idle hooks run after every this many messages (~0.5 ms).
+IDLE_EVERY = 10
 
 Handler = Callable[[Any], None]
 Tap = Callable[[Any, bool], None]
@@ -158,6 +160,9 @@ class Link:
         self.last_heartbeat: Any = None
         self.last_heartbeat_wall = 0.0
         self._next_own_heartbeat = 0.0
+        #: The last :meth:`pump` stopped at its ``limit``: messages may still wait (this computer is behind the
+        #: vehicle: a loaded machine, a stall) until a pump finds none left.
+        self.behind = False
         self.closed = False
         self.conn.message_hooks.append(self._on_message)
         self.mav.set_send_callback(self._on_send)
@@ -207,12 +212,11 @@ class Link:
         return self.target_system != 0 and msg.get_srcSystem() == self.target_system \
             and msg.get_srcComponent() == self.target_component
 
-    def pump(self, timeout: float = 0.0) -> int:
-        """Receive and dispatch everything available, waiting up to ``timeout`` s for the first message.
-        Returns the number of messages handled."""
-        self._own_heartbeat()
-        for hook in list(self.idle):
-            hook()
+    def pump(self, timeout: float = 0.0, limit: int | None = None) -> int:
+        """Receive and dispatch what is available (at most ``limit`` messages), waiting up to ``timeout`` s for the
+        first one; returns how many. Behind the vehicle (:attr:`behind`) the idle hooks still run every
+        :data:`IDLE_EVERY` messages: a setpoint stream PX4 needs never waits for the whole backlog."""
+        self._idle()
         count = 0
         deadline = time.monotonic() + timeout
         while True:
@@ -221,13 +225,12 @@ class Link:
             except OSError as exc:
                 raise VehicleError(f"receive failed on {self.endpoint}: {exc}") from None
             if msg is None:
+                self.behind = False
                 remaining = deadline - time.monotonic()
                 if count or remaining <= 0:
                     return count
                 self.conn.select(min(remaining, 0.02))
-                self._own_heartbeat()
-                for hook in list(self.idle):
-                    hook()
+                self._idle()
                 continue
             if msg.get_type() == "BAD_DATA":
                 continue
@@ -235,6 +238,16 @@ class Link:
             self._track(msg)
             for h in list(self.handlers):
                 h(msg)
+            if count == limit:
+                self.behind = True
+                return count
+            if count % IDLE_EVERY == 0:
+                self._idle()
+
+    def _idle(self) -> None:
+        self._own_heartbeat()
+        for hook in list(self.idle):
+            hook()
 
     def _track(self, msg: Any) -> None:
         if msg.get_type() != "HEARTBEAT":

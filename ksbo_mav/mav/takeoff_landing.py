@@ -60,9 +60,14 @@ def ensure_airborne(g: Guided, alt: float, start: np.ndarray, tol: float, settle
     if not g.in_mode("guided"):
         check(g.heartbeat)
         g.enter("guided")
-    if not g.wait(60.0, lambda: g.near(start, tol)):
+    if not g.wait(60.0, lambda: g.near(start, tol) or not g.in_mode("guided")):
         raise PreflightError(f"the vehicle did not come within {tol:g} m of the figure-8 start in 60 s "
                              f"(at {np.round(g.position(), 2)})")
+    if not g.in_mode("guided"):  # (PX4 leaves OFFBOARD for its failsafe when the setpoint stream pauses)
+        check(g.heartbeat)
+        raise PreflightError(f"the vehicle left {g.stack.mode_name(g.stack.modes['guided'])} for "
+                             f"{g.stack.mode_name(g.heartbeat.custom_mode)} on its way to the figure-8 start (the "
+                             "autopilot's failsafe, the pilot or a ground station): ksbo-mav leaves it there")
     g.wait(settle_s)
 
 

@@ -1,0 +1,1 @@
+"""The evaluations of the ``evaluation`` cell kind (ksbo_bench.kinds.evaluate): one module each."""
