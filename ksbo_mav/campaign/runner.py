@@ -44,7 +44,7 @@ from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.campaign.validation_session import check_validation, validate_after_tune
 from ksbo_mav.campaign.warm_start import Earlier, warm_search
 from ksbo_mav.campaign.widen import widen_search
-from ksbo_mav.errors import CampaignPaused, InputError, KsboError
+from ksbo_mav.errors import CampaignPaused, InputError, KsboError, LinkLost
 from ksbo_mav.mav.approach import check_moving_start
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.link import Endpoint
@@ -277,6 +277,9 @@ class Campaign:
             paused = CampaignPaused(failsafe_message(v, trial, command))
         elif landed:
             paused = CampaignPaused(f"{exc}; {landed}; the campaign goes on with `{command}`")
+        elif isinstance(exc, LinkLost):  # outside a trial (a takeoff, a landing): the link's doing, not the tool's
+            paused = CampaignPaused(f"{exc} (the link, outside a trial); the campaign goes on with `{command}` once "
+                                    "the link is back")
         why = str(paused or exc) or "interrupted (Ctrl-C)"
         status = EXIT["paused"] if paused is not None or isinstance(exc, CampaignPaused) else \
             EXIT["interrupted"] if isinstance(exc, KeyboardInterrupt) else EXIT["error"]
