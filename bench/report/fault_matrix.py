@@ -66,12 +66,12 @@ def _cell(r: dict[str, Any] | None) -> str:
     if r is None:
         return "not flown yet"
     res = r["result"]
-    if not res.get("reached"):
-        return f"not reached: {res.get('note', '')}"
-    left = res.get("left") or {}
-    where = f"{left.get('mode')} {'armed' if left.get('armed') else 'landed'}" if left else "?"
     diff = res.get("params_vs_snapshot")
     params = "not read" if diff is None else "equal" if not diff else f"{len(diff)} differ"
+    if not res.get("reached"):
+        return f"not reached: {res.get('note', '')}; exit {res.get('tune_exit')}; params {params}"
+    left = res.get("left") or {}
+    where = f"{left.get('mode')} {'armed' if left.get('armed') else 'landed'}" if left else "?"
     return f"exit {res.get('tune_exit')} → {_then(res)}; left {where}; params {params}"
 
 
