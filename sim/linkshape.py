@@ -11,7 +11,8 @@ per direction, ``latency`` and ``jitter`` seconds, ``loss`` probability of a fra
 length of a loss burst in frames (1 = independent losses), ``duplex`` ``full`` or ``half`` (half: both directions
 share one air time of ``max(down, up)`` bytes per second), ``seed``, ``radio`` (1: the ground radio reports
 RADIO_STATUS once a second as a SiK radio does, ``txbuf`` the free share of its uplink buffer). Example:
-``down=4000,up=2000,queue=1024,loss=0.05,latency=0.03``.
+``down=4000,up=2000,queue=1024,loss=0.05,latency=0.03``. A spec may start with the name of a case of
+:data:`CASES` (``sik``: a SiK-class radio without RADIO_STATUS), followed by keys that change it (``sik,loss=0.1``).
 """
 
 from __future__ import annotations
@@ -21,6 +22,14 @@ import random
 from dataclasses import dataclass, field, fields
 
 from ksbo_sim.errors import SimInputError
+
+
+#: Named links, each a spec. ``sik``: a SiK-class telemetry radio in its raw mode (no RADIO_STATUS, so no
+#: flow-control reports) at 2 kB/s (a 64 kbit/s air rate with error correction), half duplex, a small buffer that
+#: drops what does not fit, whole frames lost now and then. ``sik-status``: the same radio reporting RADIO_STATUS,
+#: as SiK firmware does in its MAVLink mode.
+CASES = {"sik": "down=2000,up=2000,duplex=half,queue=1024,latency=0.03,jitter=0.01,loss=0.02,seed=1",
+         "sik-status": "down=2000,up=2000,duplex=half,queue=1024,latency=0.03,jitter=0.01,loss=0.02,seed=1,radio=1"}
 
 
 @dataclass(frozen=True)
@@ -43,11 +52,15 @@ class LinkShape:
         """A shape from ``key=value,...``; SimInputError naming the bad key or value."""
         kinds = {f.name: f.type for f in fields(cls)}
         values: dict[str, object] = {}
-        for item in (s.strip() for s in spec.split(",") if s.strip()):
+        items = [s.strip() for s in spec.split(",") if s.strip()]
+        if items and items[0] in CASES:
+            items = CASES[items[0]].split(",") + items[1:]
+        for item in items:
             key, sep, text = item.partition("=")
             key = key.strip()
             if not sep or key not in kinds:
-                raise SimInputError(f"link spec {item!r}: expected KEY=VALUE with KEY one of {', '.join(kinds)}")
+                raise SimInputError(f"link spec {item!r}: expected KEY=VALUE with KEY one of {', '.join(kinds)}, or "
+                                    f"first a case: {', '.join(CASES)}")
             try:
                 values[key] = text.strip() if key == "duplex" else (int(text) if kinds[key] == "int"
                                                                     else float(text))

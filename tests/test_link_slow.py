@@ -127,13 +127,16 @@ def test_heartbeats_lost_while_telemetry_arrives_are_not_a_lost_link() -> None:
 
 @pytest.mark.network
 @pytest.mark.timeout(180)
-def test_the_vehicles_own_streams_are_quieted_before_the_mission_rate_is_lowered() -> None:
+def test_the_vehicles_own_streams_are_quieted_before_the_mission_rate_is_lowered_and_put_back_at_the_end() -> None:
     """A vehicle streaming what the campaign does not use at 50 Hz (here SERVO_OUTPUT_RAW and SYSTEM_TIME, asked
     for as another ground station or the autopilot's defaults would) over a link that carries the mission's
-    streams alone (about 4.4 kB/s of 6.4): the check asks for those streams once a second and keeps 50 Hz."""
+    streams alone (about 4.4 kB/s of 6.4): the check stops the simulator's default streams the campaign does not
+    use, confirms by sequence numbers that the link now carries what the vehicle sends, and keeps 50 Hz; closing
+    the vehicle asks for the simulator's own rates again."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
     from ksbo_mav.campaign.mission_rate import check_link
+    from ksbo_mav.mav.linkcheck import measure
 
     sim, emu, ep = realtime_through("down=5400,up=20000,queue=1024,seed=2")
     said: list[str] = []
@@ -146,8 +149,17 @@ def test_the_vehicles_own_streams_are_quieted_before_the_mission_rate_is_lowered
             rate = v.mission.rate_hz
         finally:
             v.close()
+        v = Vehicle.connect(ep, "sim-planar")  # the streams as the simulator sends them by itself
+        try:
+            after = measure(v.link, 2.0).rates_hz
+        finally:
+            v.close()
     finally:
         sim.stop()
         emu.stop()
-    assert any("asked it to send SERVO_OUTPUT_RAW, SYSTEM_TIME" in s and "once a second" in s for s in said), said
-    assert rate == 50 and fig.reduced_from_hz is None and fig.rates_hz.get("SERVO_OUTPUT_RAW", 0) < 3, said
+    asked = next((s for s in said if "asked it, on this link, to stop" in s), "")
+    assert "(SYSTEM_TIME, SERVO_OUTPUT_RAW)" in asked and "whether or not they arrived" in asked, said
+    assert any("the link carries what the vehicle sends" in s for s in said), said
+    assert rate == 50 and fig.reduced_from_hz is None and fig.rates_hz.get("SERVO_OUTPUT_RAW", 0) < 1, said
+    assert any(s.startswith("link: asked the vehicle for its own rates of the") for s in said), said
+    assert after.get("SERVO_OUTPUT_RAW", 0) > 5 and after.get("SYSTEM_TIME", 0) > 0.5, after  # 10 and 1 Hz

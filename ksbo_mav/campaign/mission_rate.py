@@ -16,7 +16,9 @@ from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.campaign.settings import MISSION_RATES_HZ
 from ksbo_mav.errors import PreflightError, VehicleError
 from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, needed_streams,
-                                    probe_uplink, quiet_other_streams, verdict)
+                                    probe_uplink, verdict)
+from ksbo_mav.mav.quieting import describe_asked, pace_for, quiet_plan
+from ksbo_mav.mav.stream_watch import StreamWatch
 from ksbo_mav.mav.vehicle import Vehicle
 
 
@@ -26,14 +28,20 @@ REDUCED_RATES_HZ = MISSION_RATES_HZ[1:]
 #: A lower rate is taken only when it also arrives nearly whole: more frames lost at it mean the link is full. A
 #: radio loses a few per cent on the air at any rate (the tool's writes are verified up to 10 % loss), so up to 10 %.
 MAX_LOSS_REDUCED = 0.10
+#: A lower rate is taken only when it also leaves a quarter of what the link carried when full: the rest of a
+#: campaign (gain writes, the onboard guard's upload, a ground station's burst) needs room on the same radio. At
+#: 96 % of a 2 kB/s half-duplex radio the guard's report was lost (ArduCopter SITL, the emulator's sik case).
+HEADROOM = 0.75
 #: Bytes of one SET_POSITION_TARGET_LOCAL_NED on the wire (MAVLink 2, 53-byte payload + 12).
 FRAME_BYTES = 65
 #: Seconds to wait for the position estimate before the link is measured (GPS lock and EKF origin on the ground).
 POSITION_WAIT_S = 90.0
-#: Rounds of quieting the streams the campaign does not use, while the link loses frames: (streams the vehicle
-#: sends faster than this, Hz; are asked for this rate, Hz). Twice once a second (streams the first round made room
-#: for arrive faster after it), then once every five seconds when the link is still full.
-QUIET_ROUNDS = ((1.1, 1.0), (1.1, 1.0), (0.3, 0.2))
+#: Rounds of asking the vehicle's streams down while the link loses frames: (a message the stack's table does not
+#: list is asked down when the vehicle sends it faster than this, Hz; to this rate, Hz; the ground station's picture
+#: at its rate times this). The table's messages are stopped in every round, whether or not they arrived; the
+#: second round catches streams the first made room for, the third slows the picture and the rest to once every
+#: five seconds. A round never raises a rate an earlier one asked.
+QUIET_ROUNDS = ((1.1, 1.0, 1.0), (1.1, 1.0, 1.0), (0.3, 0.2, 0.2))
 
 
 def _judge(v: Vehicle, seconds: float) -> tuple[LinkFigures, str | None]:
@@ -77,7 +85,17 @@ def check_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     sized = v.cmd.size_for_link(fig.rtt_ms, fig.loss)
     if sized:
         log(sized)
+    watch_streams(v, fig, log)
     return fig
+
+
+def watch_streams(v: Vehicle, fig: LinkFigures, log: Callable[[str], None]) -> None:
+    """From now until the vehicle is closed: notice a ground station on the link asking for its streams again
+    (:class:`~ksbo_mav.mav.stream_watch.StreamWatch`), say so and ask them down again."""
+    if v.stream_watch is not None:
+        v.stream_watch.stop()
+    v.stream_watch = StreamWatch(v.streams, needed_streams(v.mission.kind), v.telemetry.mission_intervals, log,
+                                 fig, pace_for(fig))
 
 
 def await_position(v: Vehicle, log: Callable[[str], None], timeout_s: float = POSITION_WAIT_S) -> None:
@@ -110,19 +128,32 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     fig, why = _judge(v, seconds)
     log(f"link: {fig.describe()}" + (f" (the mission needs {judged_stream(fig)} at {asked} Hz)"
                                      if judged(fig) else ""))
+    if v.streams.asked:  # asked down while connecting
+        log(_confirmed(fig))
     fig, why = _make_room(v, fig, why, seconds, log)
     if why and reduce:
         log(why.split("; nothing was written")[0].split(": use ")[0] + ": trying lower mission rates")
+        full = fig.bytes_per_s  # what the link carries when full: a rate kept leaves room below it
+        tight: tuple[int, LinkFigures] | None = None  # the lowest rate carried without that room
         for rate in (r for r in REDUCED_RATES_HZ if r < asked):
             v.set_mission_rate(rate)
             fig2, why2 = _judge(v, 2 * seconds)  # a longer look: a rate kept must hold, not just pass once
             log(f"link: at {rate} Hz: {fig2.describe()}")
             fig2, why2 = _make_room(v, fig2, why2, seconds, log)  # what a lower rate leaves may show more
+            if fig2.loss > MAX_LOSS_REDUCED:
+                full = max(full, fig2.bytes_per_s)
+            if why2 is None and fig2.loss <= MAX_LOSS_REDUCED and fig2.bytes_per_s > HEADROOM * full:
+                log(f"link: at {rate} Hz the link is {fig2.bytes_per_s / full:.0%} full ({fig2.bytes_per_s / 1000:.2f} "
+                    f"of the {full / 1000:.2f} kB/s it carried when full): leaving room for commands, parameter "
+                    "writes and bursts")
+                tight = (rate, fig2)
+                continue
             if why2 is None and fig2.loss <= MAX_LOSS_REDUCED:
-                log(f"link: flying at {rate} Hz instead of {asked} Hz (setpoints with velocity and acceleration "
-                    f"feed-forward, telemetry at {rate} Hz): the link carries it ({fig2.describe()})")
-                fig2.reduced_from_hz = asked
-                return fig2
+                return _fly_at(v, rate, asked, fig2, log, "")
+        if tight is not None:  # no rate left room: the lowest that carried the link, said as tight
+            v.set_mission_rate(tight[0])
+            return _fly_at(v, tight[0], asked, tight[1], log, "; the link stays nearly full: commands may need "
+                           "their retries")
         v.set_mission_rate(asked)
         why += f" (tried {', '.join(str(r) for r in REDUCED_RATES_HZ if r < asked)} Hz too)"
     if why:
@@ -130,24 +161,56 @@ def judge_link(v: Vehicle, log: Callable[[str], None], seconds: float = 3.0, red
     return fig
 
 
+def _fly_at(v: Vehicle, rate: int, asked: int, fig: LinkFigures, log: Callable[[str], None],
+            note: str) -> LinkFigures:
+    log(f"link: flying at {rate} Hz instead of {asked} Hz (setpoints with velocity and acceleration "
+        f"feed-forward, telemetry at {rate} Hz): the link carries it ({fig.describe()}){note}")
+    fig.reduced_from_hz = asked
+    return fig
+
+
 def _make_room(v: Vehicle, fig: LinkFigures, why: str | None, seconds: float,
                log: Callable[[str], None]) -> tuple[LinkFigures, str | None]:
     """While the link is full (a verdict against it, or more than :data:`MAX_LOSS_REDUCED` of the vehicle's frames
-    lost), quiet the streams the campaign does not use by :data:`QUIET_ROUNDS`, judged by what the vehicle sends
-    (its sequence numbers), not by what of it happened to arrive, and measure again; the last figures."""
-    for above_hz, to_hz in QUIET_ROUNDS:
+    lost), ask the vehicle's streams the campaign does not use down by :data:`QUIET_ROUNDS`: every message of the
+    stack's default stream sets (:mod:`ksbo_mav.mav.stream_sets`), whether or not it arrived, and whatever else it
+    sends fast by its sequence numbers; then measure again and say whether the vehicle now sends what the link
+    carries. Returns the last figures."""
+    needed = needed_streams(v.mission.kind)
+    v.streams.log = log
+    for above_hz, to_hz, scale in QUIET_ROUNDS:
         if not (why or fig.loss > MAX_LOSS_REDUCED):
             break
-        quieted = quiet_other_streams(v.cmd, fig, above_hz, to_hz, needed_streams(v.mission.kind))
-        if not quieted:
+        asked = dict(v.streams.asked)
+        plan = {n: min(hz, asked.get(n, hz)) for n, hz in
+                quiet_plan(v.stack.name, needed, fig, above_hz, to_hz, scale).items()}
+        changed = {n: hz for n, hz in plan.items() if asked.get(n) != hz}
+        # Asked before, yet arriving: a command lost on the way up (a full radio drops them too), or not obeyed.
+        back = [n for n, hz in plan.items() if n not in changed and fig.rates_hz.get(n, 0.0) > 1.5 * hz + 0.1]
+        if not changed and not back:
             continue
-        every = "once a second" if to_hz == 1.0 else f"once every {1 / to_hz:g} s"
-        log(f"link: the vehicle sends about {fig.sent_bytes_per_s / 1000:.1f} kB/s, {fig.bytes_per_s / 1000:.1f} "
-            f"arrive ({fig.loss:.0%} of its frames lost by sequence number): asked it to send {', '.join(quieted)} "
-            f"{every} on this link (not used by the campaign; no parameter changed, a reboot restores them)")
+        first = {n: plan[n] for n in back} | changed
+        v.streams.ask(first | plan if back else first, pace_for(fig), lead=v.telemetry.mission_intervals())
+        v.streams.flush()
+        if changed:
+            log(describe_asked(v.stack.name, fig, changed))
+        if back:
+            log(f"link: {', '.join(back[:8])}{' ...' if len(back) > 8 else ''} still arrive though asked down "
+                f"(a command lost on the way up?): asked the vehicle again for all {len(plan)}")
         fig, why = _judge(v, 2 * seconds)
         log(f"link: {fig.describe()}")
+        log(_confirmed(fig))
     return fig, why
+
+
+def _confirmed(fig: LinkFigures) -> str:
+    """Whether the vehicle now sends what the link carries, by its sequence numbers."""
+    sent, got = fig.sent_bytes_per_s / 1000, fig.bytes_per_s / 1000
+    if fig.loss <= MAX_LOSS_REDUCED:
+        return (f"link: by its sequence numbers the vehicle now sends about {sent:.1f} kB/s and {got:.1f} arrive "
+                f"({fig.loss:.0%} lost): the link carries what the vehicle sends")
+    return (f"link: by its sequence numbers the vehicle still sends about {sent:.1f} kB/s and {got:.1f} arrive "
+            f"({fig.loss:.0%} lost)")
 
 
 def record_link(d: CampaignDir, fig: LinkFigures, on_link_loss: str | None = None) -> None:

@@ -12,8 +12,10 @@ stepped instead. Differences between stacks that matter here:
   Arming is refused ("temporarily rejected") until the preflight checks pass: the client retries and reports the
   vehicle's reason on one line.
 
-While a hold target is set (:meth:`Guided.hold_at`), the link's idle hook re-sends it at 20 Hz during *every*
-wait — command acknowledgements and parameter echoes included — so the stream never lapses.
+While a hold target is set (:meth:`Guided.hold_at`), the link's idle hook re-sends it during *every* wait —
+command acknowledgements and parameter echoes included — so the stream never lapses: at 20 Hz where the stack
+needs a stream (PX4 OFFBOARD), twice a second elsewhere (a position-only target holds anyway; on a half-duplex
+radio 20 Hz of targets took 1.3 kB/s of the air the vehicle's telemetry needed).
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ from ksbo_mav.mav.stacks import Stack
 from ksbo_mav.mav.telemetry import Telemetry
 
 CMD_SIM_STEP = 31011  # built-in simulator, lockstep: advance p1 seconds
-KEEPALIVE_S = 0.05  # wall seconds between re-sent hold targets
+#: Wall seconds between re-sent hold targets: (the stack needs a stream, it does not).
+KEEPALIVE_S = (0.05, 0.5)
 PRESTREAM_S = 1.5  # vehicle seconds of setpoints before asking PX4 for OFFBOARD (it wants > 1 s)
 STREAM_PUMP_LIMIT = 8  # messages read between two looks at the due setpoints (~2 steps of telemetry at 50 Hz)
 
@@ -122,7 +125,7 @@ class Guided:
         if self._hold is None or self.lockstep:
             return
         now = time.monotonic()
-        if now - self._last_keep >= KEEPALIVE_S:
+        if now - self._last_keep >= KEEPALIVE_S[0 if self.stack.needs_stream else 1]:
             self._last_keep = now
             self.send(self._hold)
 

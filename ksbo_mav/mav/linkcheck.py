@@ -13,10 +13,7 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from ksbo_mav.errors import VehicleError
-from ksbo_mav.mav.commands import Commander
 from ksbo_mav.mav.link import Link
-from ksbo_mav.mav.wire import mavlink
 
 #: Below this share of the mission rate the trial cannot be flown (the tuner falls behind the vehicle).
 MIN_RATE_SHARE = 0.8
@@ -135,7 +132,9 @@ def verdict(fig: LinkFigures, mission_rate_hz: float) -> str | None:
     radio_full = fig.radio is not None and fig.radio["txbuf"] < 30
     if not (fig.loss > 0.02 or radio_full):
         return None
-    per_sample = fig.bytes_per_s / rate if rate > 0 else 80.0  # bytes of downlink per sample of the stream
+    # bytes of downlink per sample of the stream (a stream starved by a full link makes the ratio meaningless: at most
+    # the mission's own messages, LOCAL_POSITION_NED, ATTITUDE and ACTUATOR_OUTPUT_STATUS, about 230 bytes)
+    per_sample = min(fig.bytes_per_s / rate, 230.0) if rate > 0 else 80.0
     need = per_sample * mission_rate_hz
     return (f"link check: the link delivers {fig.describe()}; a trial needs {name} at {mission_rate_hz:g} Hz "
             f"(about {need / 1000:.1f} kB/s down): use a faster link (a wired companion computer, a faster radio "
@@ -174,36 +173,26 @@ def probe_uplink(link: Link, rate_hz: float, seconds: float) -> int | None:
     return min(seen[1:] or seen) if seen else None
 
 
-#: What a campaign listens to (the mission's streams, the pack and wind, the services' answers): never quieted.
-#: (TIMESYNC is not: the round trip is measured with our own requests, which the vehicle answers at any rate.)
+#: What a campaign listens to (the mission's streams, the pack and wind, the guard's NAMED_VALUE_FLOAT, the
+#: validation mission's progress, what it asks for once, the services' answers): never asked down. One list: a
+#: reader of another message adds it here. (TIMESYNC is not: the round trip is measured with our own requests, which
+#: the vehicle answers at any rate.)
 NEEDED = frozenset({"LOCAL_POSITION_NED", "ATTITUDE", "ACTUATOR_OUTPUT_STATUS", "HEARTBEAT", "SYS_STATUS",
                     "BATTERY_STATUS", "WIND", "WIND_COV", "STATUSTEXT", "COMMAND_ACK", "PARAM_VALUE",
-                    "RADIO_STATUS", "FILE_TRANSFER_PROTOCOL", "AUTOPILOT_VERSION", "EXTENDED_SYS_STATE"})
+                    "RADIO_STATUS", "FILE_TRANSFER_PROTOCOL", "AUTOPILOT_VERSION", "EXTENDED_SYS_STATE",
+                    "NAMED_VALUE_FLOAT", "MISSION_ITEM_REACHED", "MISSION_ACK", "MISSION_COUNT", "MISSION_REQUEST",
+                    "MISSION_REQUEST_INT", "MISSION_ITEM_INT", "GPS_GLOBAL_ORIGIN"})
+
+#: Kept at a low rate (Hz) when the link is full rather than stopped: a ground station's picture of the vehicle
+#: (its map, fix, HUD and mission progress; HEARTBEAT, ATTITUDE and SYS_STATUS come anyway; the validation's AUTO
+#: mission reads MISSION_CURRENT too, for which once a second is enough) and what the campaign asks for once (the
+#: hold's stick check reads RC_CHANNELS, the mission's frame HOME_POSITION: PX4 answers a request for a message
+#: only while its stream exists).
+GROUND_PICTURE = {"GLOBAL_POSITION_INT": 1.0, "GPS_RAW_INT": 1.0, "VFR_HUD": 1.0, "MISSION_CURRENT": 1.0,
+                  "RC_CHANNELS": 0.2, "HOME_POSITION": 0.2}
 
 
 def needed_streams(mission_kind: str) -> frozenset[str]:
     """:data:`NEEDED` for a mission of ``mission_kind``: ACTUATOR_OUTPUT_STATUS (136 bytes a frame; PX4 streams it
     at several Hz on a radio link) is read by the planar task (figure8-xz) only."""
     return NEEDED if mission_kind == "figure8-xz" else NEEDED - {"ACTUATOR_OUTPUT_STATUS"}
-
-
-def quiet_other_streams(cmd: Commander, fig: LinkFigures, above_hz: float = 1.1, to_hz: float = 1.0,
-                        needed: frozenset[str] = NEEDED) -> list[str]:
-    """Ask the vehicle to send each stream the campaign does not use, and that it *sends* faster than ``above_hz``
-    (:meth:`LinkFigures.sent_hz`: by sequence numbers, not by what happened to arrive), at ``to_hz``
-    (SET_MESSAGE_INTERVAL on this link only: no parameter changes, a reboot restores the vehicle's own rates, and a
-    ground station sharing the link still gets them, slowly). Returns the names asked. PX4's default streams alone
-    fill a 4 kB/s radio, and PX4 shares a link's budget among its streams in proportion to the rates asked of them:
-    one arriving at 1.5 Hz may be asked for 10 Hz and take that share from the mission's stream, so anything faster
-    than about once a second is asked down."""
-    asked = []
-    for name in sorted(fig.rates_hz):
-        msg_id = getattr(mavlink, f"MAVLINK_MSG_ID_{name}", None)
-        if name in needed or fig.sent_hz(name) <= above_hz or msg_id is None:
-            continue
-        try:
-            cmd.set_interval(msg_id, 1e6 / to_hz)
-        except VehicleError:  # unanswered on a full link: the next measurement tells whether it took
-            pass
-        asked.append(name)
-    return asked

@@ -32,8 +32,10 @@ MSG_WIND, MSG_WIND_COV = 168, 231  # the wind estimate, at 1 Hz (ksbo_mav.campai
 class Telemetry:
     """Latest LOCAL_POSITION_NED / ATTITUDE, the vehicle clock, LPN rate and sequence-gap counts."""
 
-    def __init__(self, link: Link, cmd: Commander, rate_hz: float) -> None:
+    def __init__(self, link: Link, cmd: Commander, rate_hz: float, actuators: bool = True) -> None:
         self.link, self.cmd, self.rate_wanted = link, cmd, float(rate_hz)
+        #: ACTUATOR_OUTPUT_STATUS asked at the mission rate too (a mission that reads it: the planar task)
+        self.actuators = actuators
         self._power_asked = False
         self.clock = VehicleClock()
         self.last_lpn: Any = None
@@ -65,7 +67,8 @@ class Telemetry:
         """SET_MESSAGE_INTERVAL for LOCAL_POSITION_NED and ATTITUDE at the mission rate; False if refused."""
         period_us = 1e6 / self.rate_wanted
         ok = all([self.cmd.set_interval(m, period_us) for m in (MSG_LPN, MSG_ATTITUDE)])
-        self.cmd.set_interval(MSG_ACTUATOR, period_us)  # optional (thrusts for P(a)'s input term); not on SITLs
+        if self.actuators:  # optional (thrusts for P(a)'s input term); not on SITLs
+            self.cmd.set_interval(MSG_ACTUATOR, period_us)
         if not self._power_asked:  # optional: a link whose stream rates are off still reports the pack
             self._power_asked = True
             # ArduCopter streams WIND only in EXTRA3 (its rate often 0 on SITL and USB), PX4 WIND_COV when its
@@ -77,6 +80,14 @@ class Telemetry:
                     pass
         self._last_assert_ms = self.clock.last_ms if self.clock.valid else -1e18
         return ok
+
+    def mission_intervals(self) -> list[tuple[int, float]]:
+        """(message id, interval µs) of the campaign's own streams as :meth:`request_rates` asks for them (the
+        mission's at its rate, the pack's and the wind's once a second), to assert them again after a ground
+        station's stream request reset them."""
+        period_us = 1e6 / self.rate_wanted
+        return [(MSG_LPN, period_us), (MSG_ATTITUDE, period_us)] + [(MSG_ACTUATOR, period_us)] * self.actuators + [
+            (m, 1e6) for m in (MSG_SYS_STATUS, MSG_BATTERY_STATUS, MSG_WIND, MSG_WIND_COV)]
 
     def rate_hz(self, window_ms: float = 1000.0) -> float | None:
         """LOCAL_POSITION_NED samples per second of vehicle time over the last ``window_ms`` (None: too few)."""

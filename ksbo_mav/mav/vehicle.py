@@ -24,10 +24,12 @@ from ksbo_mav.mav.commands import Commander
 from ksbo_mav.mav.gains import GainService
 from ksbo_mav.mav.guided import Guided
 from ksbo_mav.mav.link import Endpoint, Link
+from ksbo_mav.mav.linkcheck import needed_streams
 from ksbo_mav.mav.mission import Mission
 from ksbo_mav.mav.params import CAPABILITY_FTP, ParamClient
 from ksbo_mav.mav.pilot import taken_over
 from ksbo_mav.mav.power import PowerWatch
+from ksbo_mav.mav.quieting import SequenceLoss, StreamQuieter, quiet_while_connecting
 from ksbo_mav.mav.signing import needs_key
 from ksbo_mav.mav.stacks import GainMap, Identity, Stack, default_profile, detect_stack
 from ksbo_mav.mav.takeoff_landing import ensure_airborne, land
@@ -37,7 +39,7 @@ from ksbo_mav.profiles import Profile, load_profile
 
 class Vehicle:
     def __init__(self, link: Link, stack: Stack, identity: Identity, params: ParamClient, cmd: Commander,
-                 profile: Profile, gain_map: GainMap) -> None:
+                 profile: Profile, gain_map: GainMap, streams: StreamQuieter | None = None) -> None:
         self.link, self.stack, self.identity = link, stack, identity
         self.params, self.cmd, self.profile = params, cmd, profile
         #: Profile gain vector <-> autopilot parameters ({name: value}) of this vehicle.
@@ -47,9 +49,14 @@ class Vehicle:
         self.lockstep = self.is_sim and params.table["SIM_LOCKSTEP"].value == 1
         self.heartbeat_timeout = float(profile.safety.heartbeat_timeout_s)  # the one source of this timeout
         self.tuning = GainService(params, profile, gain_map)
-        self.telemetry = Telemetry(link, cmd, self.mission.rate_hz)
+        self.telemetry = Telemetry(link, cmd, self.mission.rate_hz,
+                                   actuators="ACTUATOR_OUTPUT_STATUS" in needed_streams(self.mission.kind))
         self.guided = Guided(link, cmd, stack, self.telemetry, self.heartbeat_timeout, self.lockstep)
         self.power = PowerWatch(link)  # battery figures and the vehicle's STATUSTEXTs
+        #: The vehicle's streams asked down on a full link (put back by :meth:`close`), and the watch for a ground
+        #: station that asks for them again (:func:`ksbo_mav.campaign.mission_rate.watch_streams`).
+        self.streams = streams or StreamQuieter(cmd, stack.name)
+        self.stream_watch: Any = None
         #: Airborne in guided by us since our last landing: a later mode change or disarm is not ours to undo.
         self.had_control = False
         #: The onboard guard (:class:`~ksbo_mav.mav.onboard_guard.OnboardGuard`) armed around every trial, if the
@@ -70,10 +77,16 @@ class Vehicle:
         still reports the hash of a set kept on disk is not asked for them again (:mod:`ksbo_mav.mav.params.cache`)."""
         kwargs = {k: v for k, v in (("sysid", sysid), ("compid", compid)) if v is not None}
         link = Link(endpoint, **kwargs)
+        seen = SequenceLoss(link)
+        streams: StreamQuieter | None = None
         try:
             hb = link.wait_heartbeat(timeout)
             cmd = Commander(link)
             ver = cmd.request_message(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, "AUTOPILOT_VERSION")
+            seen.stop()
+            streams = quiet_while_connecting(cmd, int(hb.autopilot), seen, log)  # a full link: make room first
+            if ver is None and streams.asked:
+                ver = cmd.request_message(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, "AUTOPILOT_VERSION")
             if ver is None:
                 raise VehicleError(needs_key(link)
                                    or "the vehicle did not answer REQUEST_MESSAGE(AUTOPILOT_VERSION)")
@@ -101,13 +114,27 @@ class Vehicle:
             if want and want != stack.name:
                 raise InputError(f"profile {prof.name} is for autopilot {want!r}, the vehicle runs {stack.name}")
             gain_map = GainMap.build(prof.names, stack, table, prof)
-            return cls(link, stack, ident, params, cmd, prof, gain_map)
+            streams.stack_name = stack.name
+            return cls(link, stack, ident, params, cmd, prof, gain_map, streams)
         except BaseException:
+            if streams is not None and streams.asked:
+                try:
+                    streams.restore()
+                except VehicleError:
+                    pass  # the link broke: a reboot puts them back
             link.close()
             raise
 
     def close(self) -> None:
+        """Put back the streams asked down (the autopilot's own rates on this link), then close the link."""
         self.guided.hold_at(None)
+        if self.stream_watch is not None:
+            self.stream_watch.stop()
+        if self.streams.asked and not self.link.closed:
+            try:
+                self.streams.restore()
+            except VehicleError:  # the link broke: a reboot puts them back
+                pass
         self.link.close()
 
     def set_mission_rate(self, rate_hz: int) -> None:
