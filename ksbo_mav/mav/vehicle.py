@@ -62,6 +62,8 @@ class Vehicle:
         #: The onboard guard (:class:`~ksbo_mav.mav.onboard_guard.OnboardGuard`) armed around every trial, if the
         #: campaign installed one.
         self.guard: Any = None
+        #: Where a validation's AUTO mission keeps the user's stored mission while it replaces it (None: memory only).
+        self.mission_file: Any = None
 
     # --- preflight -----------------------------------------------------------------------------------------
     @classmethod
