@@ -7,13 +7,12 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.params import load_snapshot
-from ksbo_mav.mav.stacks import autopilot_updated
 from ksbo_mav.mav.vehicle import Vehicle
-
 
 
 def tool(*args: str, timeout: float = 400) -> subprocess.CompletedProcess:
@@ -24,6 +23,15 @@ def tool(*args: str, timeout: float = 400) -> subprocess.CompletedProcess:
     env = dict(os.environ, MAVLINK20="1")
     return subprocess.run([sys.executable, "-m", "ksbo_mav.cli", *args], capture_output=True, text=True,
                           timeout=timeout, env=env)
+
+
+def bench_pilot(sitl):
+    """The bench pilot (``ksbo-mav sim-pilot``, :mod:`ksbo_sim.bench_pilot`) in its own process, watching an
+    ArduCopter SITL on its third TCP port (the tuner and an observer keep the other two) and feeding its RC input;
+    the caller stops it (``.stop()`` returns what it printed)."""
+    from ksbo_sim.bench_pilot import PilotProcess
+
+    return PilotProcess(f"tcp:127.0.0.1:{sitl.tcp_ports[2]}")
 
 
 def endpoint(sitl, port: int | None = None) -> Endpoint:
@@ -47,16 +55,9 @@ def read_all(sitl, profile: str) -> tuple[dict[str, float], bool]:
 
 
 def param_diff(campaign: Path, now: dict[str, float]) -> dict[str, tuple[float, float]]:
-    """Parameters whose value differs from the campaign's snapshot, except those the autopilot writes itself
-    (``ksbo_mav.mav.stacks.AUTOPILOT_UPDATED``): {name: (snapshot, now)}."""
-    snap = load_snapshot(campaign)
-    out = {}
-    for name, (value, _) in snap.params.items():
-        if autopilot_updated(snap.stack, name):
-            continue
-        if name not in now or abs(now[name] - value) > 1e-6 * max(1.0, abs(value)):
-            out[name] = (value, now.get(name))
-    return out
+    """Parameters whose value differs from the campaign's snapshot, except those the autopilot writes itself:
+    {name: (snapshot, now)} (ksbo_mav.mav.params.Snapshot.off)."""
+    return load_snapshot(campaign).off(now)
 
 
 def trials(campaign: Path) -> list[dict]:
@@ -99,3 +100,28 @@ def short_campaign(sitl, d: Path) -> tuple[Path, dict, str]:
     r = tool("tune", str(d), *sitl.cli_args, "--prior", "none", "--budget", "3", "--json")
     assert r.returncode == 0, r.stderr[-3000:]
     return d, json.loads(r.stdout[r.stdout.index("{"):]), r.stderr
+
+
+def tune_behind_link(sitl, d: Path, *args: str):
+    """``ksbo-mav tune d ARGS`` behind the link emulator (on the SITL's first TCP port) and a second connection the
+    tuner does not use (its second port): (emulator, observer, the tuner's process, its connection arguments)."""
+    from guard_helpers import Observer
+
+    from ksbo_sim.linkproc import LinkEmulator
+    from ksbo_sim.process import free_udp_port
+
+    gport = free_udp_port()
+    emu = LinkEmulator(f"tcp:127.0.0.1:{sitl.tcp_port}", f"udp:127.0.0.1:{gport}")
+    obs = Observer(f"tcp:127.0.0.1:{sitl.tcp_ports[1]}")
+    conn = ["--udp", f"127.0.0.1:{gport}"]
+    proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), *conn, *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    return emu, obs, proc, conn
+
+
+def wait_for_trial(proc, d: Path, obs, k: int, wall_s: float) -> None:
+    """Until trial ``k``'s tlog is open (the tuner still running), pumping the observer."""
+    deadline = time.monotonic() + wall_s
+    while not (d / "trials" / f"trial_{k:03d}.tlog").exists():
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read()[-3000:]
+        obs.pump(0.1)

@@ -21,7 +21,7 @@ FORBIDDEN_FOR_CORE = ("ksbo_sim", "ksbo_mav.mav", "ksbo_mav.campaign", "ksbo_mav
 MAX_LINES = 320  # "about 300": a module past this is two concepts
 #: The modules of ksbo_mav that may import ksbo_sim: the objectives flown in process on the simulators and the
 #: commands that start a simulator process. The MAVLink client and the campaign load no simulator.
-SIMULATOR_USERS = ("ksbo_mav.simulated", "ksbo_mav.cli.demo", "ksbo_mav.cli.sim")
+SIMULATOR_USERS = ("ksbo_mav.simulated", "ksbo_mav.cli.demo", "ksbo_mav.cli.sim", "ksbo_mav.cli.sim_pilot")
 
 
 def _modules() -> dict[str, Path]:

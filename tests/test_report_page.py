@@ -255,8 +255,9 @@ def test_a_crashed_confirmation_is_counted_and_the_verdict_says_not_confirmed(tm
 
 @pytest.mark.slow
 def test_report_of_an_interrupted_campaign_shows_the_trials_so_far(tmp_path, capsys):
-    """The pilot takes over during the baseline trial: the campaign stops without a result; `ksbo-mav report`
-    still writes the page, says the campaign is unfinished and counts the interrupted trial."""
+    """The pilot takes over during the baseline trial: the campaign stops without a result and writes the page at
+    once, without its plots; `ksbo-mav report` draws them, says the campaign is unfinished and counts the
+    interrupted trial."""
     from ksbo_mav.campaign import Campaign, CampaignConfig
     from ksbo_mav.errors import VehicleError
 
@@ -267,8 +268,12 @@ def test_report_of_an_interrupted_campaign_shows_the_trials_so_far(tmp_path, cap
             Campaign(CampaignConfig(dir=str(d), budget=3, seed=0, prior="none", end="hold"), ep,
                      log=lambda s: None).run()
     assert not (d / "result.json").exists()
+    # the stop wrote the page at once, without drawing (a stop must be quick), and says what draws the plots
+    assert not list((d / "report").glob("*.png"))
+    assert f"Plots not drawn: `ksbo-mav report {d}` draws them" in " ".join(_page(d).split())
     assert main(["report", str(d)]) == 0
     assert "report: " in capsys.readouterr().out
+    assert (d / "report" / "convergence.png").is_file() and "Plots not drawn" not in _page(d)
     verdict = _verdict(_page(d))
     assert "Unfinished campaign" in verdict and "interrupted (not the gains) 1" in verdict
     assert '<td class="l o">interrupted (pilot' in _page(d)

@@ -12,7 +12,8 @@ import time
 
 import pytest
 
-from sitl_helpers import accept_then_restore, counted_trials, param_diff, read_all, short_campaign, tool
+from sitl_helpers import (accept_then_restore, bench_pilot, counted_trials, param_diff, read_all, short_campaign, tool,
+                          tune_behind_link, wait_for_trial)
 
 from ksbo_mav.mav.trajectory import trajectory_from_tlog
 from ksbo_mav.mav.tlog import read_tlog
@@ -116,44 +117,20 @@ def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
     assert not armed and not param_diff(d, now)
 
 
-def _throttle(sitl, pwm: int) -> None:
-    """SITL's RC input (UDP 5501+10N, 16 PWM values): sticks centred, the throttle at ``pwm``."""
-    import socket
-    import struct
-
-    values = [1500, 1500, pwm, 1500, 1800, 1000, 1000, 1800] + [0] * 8
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        for _ in range(3):
-            s.sendto(struct.pack("<16H", *values), ("127.0.0.1", 5501 + 10 * sitl.instance))
-
-
 def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ardupilot_sitl, tmp_path):
     """The tuner's link through the link emulator, cut (every frame both ways) 1.5 s of wall time into the first
     optimiser trial for 8 s: on board, read on a second connection the tuner does not use, the guard puts the
     baseline back and brakes; once the link is back the tuner reads what happened there, records the trial as
     interrupted (not given to the optimiser), verifies the baseline, takes the vehicle back and flies the same
     gains again; the report shows the event and every parameter ends as the snapshot had it."""
-    from guard_helpers import Observer
-
-    from ksbo_sim.linkproc import LinkEmulator
-    from ksbo_sim.process import free_udp_port
-
-    gport, d = free_udp_port(), tmp_path / "cut"
-    emu = LinkEmulator(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_port}", f"udp:127.0.0.1:{gport}")
-    obs = Observer(f"tcp:127.0.0.1:{ardupilot_sitl.tcp_ports[1]}")
-    proc = subprocess.Popen([sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp", f"127.0.0.1:{gport}",
-                             "--prior", "none", "--budget", "2", "--confirm", "0"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    d = tmp_path / "cut"
+    pilot = bench_pilot(ardupilot_sitl)  # a pilot's transmitter: LOITER holds (a resting throttle would land it)
+    emu, obs, proc, _ = tune_behind_link(ardupilot_sitl, d, "--prior", "none", "--budget", "2", "--confirm", "0")
     try:
-        deadline = time.monotonic() + 300
-        while not (d / "trials" / "trial_001.tlog").exists():
-            assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read()[-3000:]
-            obs.pump(0.1)
+        wait_for_trial(proc, d, obs, 1, 300)
         baseline = json.loads((d / "trials" / "trial_000.json").read_text())["vehicle_values"]
         assert obs.until(lambda: {n: obs.param(n) for n in baseline} != pytest.approx(baseline, rel=1e-6), 60.0), \
             "the trial gains never came"
-        # airborne: a pilot's transmitter at mid-stick (SITL's own throttle is at 1000, which LOITER would land on)
-        _throttle(ardupilot_sitl, 1500)
         obs.pump(1.5)  # into the trial, its gains flying
         cut_ms, cut_wall = obs.vehicle_ms, time.monotonic()
         emu.cut()
@@ -168,7 +145,7 @@ def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ar
             proc.kill()
         obs.close()
         emu.stop()
-        _throttle(ardupilot_sitl, 1000)
+        pilot.stop()
     print(f"link cut at vehicle {cut_ms} ms; the guard tripped at {tripped_ms} ms ({tripped_ms - cut_ms} ms of "
           f"vehicle time, {tripped_wall - cut_wall:.1f} s of wall time); link back after 8 s of wall time")
     assert on_board == pytest.approx(baseline, rel=1e-6)  # put back on board before the link returned

@@ -4,19 +4,19 @@ Mission at the autopilot's own speeds; every flight completes, its figures re-co
 ones, and the vehicle's stored mission is the one it had before.
 
 ArduCopter's LOITER flies the sticks: the SITL's simulated transmitter rests with the throttle low, so the hold is
-first refused in one line, then the test centres the sticks on the SITL's RC input port (UDP 5501 + 10 N), as a
-pilot would. PX4 gets COM_RCL_EXCEPT = 4 (OFFBOARD without RC) like the other PX4 SITL tests."""
+first refused in one line, then the bench pilot (``ksbo-mav sim-pilot``, its own process on the SITL's third port)
+centres the sticks on the SITL's RC input, as a pilot would, and the RC_CHANNELS the vehicle reports say so. PX4
+gets COM_RCL_EXCEPT = 4 (OFFBOARD without RC) like the other PX4 SITL tests."""
 
 from __future__ import annotations
 
 import math
-import socket
-import struct
+import time
 
 import numpy as np
 import pytest
 
-from sitl_helpers import endpoint
+from sitl_helpers import bench_pilot, endpoint
 
 from ksbo_mav.mav.mission_transfer import MissionTransfer
 from ksbo_mav.mav.monitor import Monitor, limits_from_profile
@@ -37,15 +37,10 @@ def _same(a: dict[str, float], b: dict[str, float]) -> bool:
                                         ((a[k], b[k]) for k in a))
 
 
-def _centre_sticks(sitl) -> None:
-    """Roll, pitch, throttle, yaw at 1500 us on the SITL's RC input (channels 5.. left as they are: 0)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.sendto(struct.pack("<16H", *([1500] * 4 + [0] * 12)), ("127.0.0.1", 5501 + 10 * sitl.instance))
-
-
 def _fly_all(sitl, profile: str, tmp_path) -> dict:
     v = Vehicle.connect(endpoint(sitl), profile, timeout=30)
     flights = {}
+    pilot = None
     try:
         v.setup_streams()
         mon = Monitor(limits_from_profile(v.profile), v.stack.modes["guided"], v.stack.mode_name)
@@ -57,7 +52,8 @@ def _fly_all(sitl, profile: str, tmp_path) -> dict:
         if sitl.kind == "ardupilot":
             refused = fly_manoeuvre(v, specs["hold"], mon, gains_label="baseline", tlog_path=tmp_path / "r.tlog")
             assert refused.outcome is T.ERROR and "throttle stick is at 1000 us" in refused.message
-            _centre_sticks(sitl)
+            pilot = bench_pilot(sitl)
+            assert _throttle_becomes(v, 1500), "the bench pilot did not centre the throttle"
         for kind, spec in specs.items():
             f = fly_manoeuvre(v, spec, mon, gains_label="baseline", tlog_path=tmp_path / f"{kind}.tlog")
             assert f.outcome is T.OK, f.message
@@ -66,11 +62,27 @@ def _fly_all(sitl, profile: str, tmp_path) -> dict:
             flights[kind] = f
         assert list(map(repr, transfer.download())) == before
         v.land()
+        if pilot is not None:  # landed and disarmed: the pilot's throttle back low
+            assert _throttle_becomes(v, 1000), "the bench pilot left the throttle up"
     finally:
         v.close()
+        if pilot is not None:
+            print(pilot.stop())
     for kind, f in flights.items():
         print(kind, {k: round(x, 3) for k, x in f.metrics.items()})
     return flights
+
+
+def _throttle_becomes(v, pwm: int, wall_s: float = 60.0) -> bool:
+    """The throttle's pulse width the vehicle reports (RC_CHANNELS) reaches ``pwm`` within ``wall_s`` of wall time
+    (the bench pilot is a process of its own, on the wall clock)."""
+    deadline = time.monotonic() + wall_s
+    while time.monotonic() < deadline:
+        msg = v.cmd.request_message(65, "RC_CHANNELS")
+        if msg is not None and int(msg.chan3_raw) == pwm:
+            return True
+        v.link.pump(0.2)
+    return False
 
 
 def _check(flights: dict, box: tuple[float, float]) -> None:

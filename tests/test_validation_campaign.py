@@ -20,38 +20,12 @@ from mav_tune_helpers import fresh_read, sim_and_endpoint
 
 from ksbo_mav.campaign.validation_log import ValidationJournal
 from ksbo_mav.campaign.verdict import judge_pairs, refusal
+from ksbo_bench.kinds.fault_moments import profile as _profile
 from ksbo_mav.cli import main
 
 pytestmark = [pytest.mark.network, pytest.mark.timeout(600)]
 
 NAMES = ["PSC_NE_POS_P", "PSC_NE_VEL_P", "PSC_NE_VEL_I", "PSC_NE_VEL_D", "PSC_D_POS_P", "PSC_D_VEL_P"]
-#: The copter profile with small validation manoeuvres (quick halves them again): a short test.
-SMALL = """
-[validation]
-manoeuvres = "steps,hold,auto_mission"
-repeats = 2
-
-[validation.steps]
-offsets_m = [[3.0, 0.0, 0.0]]
-dwell_s = 6.0
-settle_s = 1.0
-
-[validation.hold]
-seconds = 6.0
-settle_s = 1.0
-
-[validation.auto_mission]
-size_m = [4.0, 3.0]
-settle_s = 1.0
-"""
-
-
-def _profile(tmp: Path) -> Path:
-    text = (Path(__file__).parent.parent / "params" / "ardupilot-copter.toml").read_text()
-    text = text[:text.index("[validation]")] + SMALL
-    p = tmp / "small-validation.toml"
-    p.write_text(text)
-    return p
 
 
 def _lines(path: Path) -> list[dict]:
@@ -134,7 +108,9 @@ def test_the_realtime_benchmark_reads_the_campaigns_validation(campaign):
         {m: j.verdict for m, j in verdicts[0].judged.items()}
     leans = [x for xs in fig["validation_step_leans"].values() for x in xs]
     assert leans and all(0 < x < 45 for x in leans)  # a 3 m step in this profile: a lean, never a flip
-    assert len(fig["baseline_rms"]) >= 1 and fig["search_end_text"].startswith(("budget", "early stop"))
+    assert len(fig["baseline_rms"]) >= 1
+    ended = json.loads((d / "result.json").read_text())["search_end"]  # None: the stopping rule is off (random)
+    assert fig["search_end_text"] == "–" if ended is None else fig["search_end_text"].startswith(("budget", "early"))
 
 
 def test_the_vehicle_ends_with_the_snapshot_gains(campaign):
@@ -214,7 +190,7 @@ def test_a_worse_recommendation_makes_validate_fly_the_next_candidate(campaign, 
 def test_a_pack_too_short_for_the_validation_stops_it_cleanly(tmp_path, capsys):
     """A pack (the simulator's, 1100 mAh at 10 A) that carries the tune but not its validation flights: they stop
     before the flight the pack would not fit, in one line naming `ksbo-mav validate`; the tune ends as usual (its
-    result written, the baseline restored, landed) and exits 0."""
+    result written, the baseline restored, landed) and exits 4: tuned, validation incomplete."""
     d = tmp_path / "c"
     prof = _profile(tmp_path)
     with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot", "--battery", "1100") as (sim, ep):
@@ -222,9 +198,10 @@ def test_a_pack_too_short_for_the_validation_stops_it_cleanly(tmp_path, capsys):
         rc = main(["tune", str(d), "--udp", f"127.0.0.1:{ep.port}", "--profile", str(prof), "--budget", "3",
                    "--method", "random", "--prior", "none", "--no-onboard-guard"])
         err = capsys.readouterr().err
-        assert rc == 0, err
+        assert rc == 4, err
         text = " ".join(err.split())
         assert "validation stopped: battery: " in text and f"`ksbo-mav validate {d}" in text, text[-3000:]
+        assert "tuned; validation incomplete: stopped: battery: " in text
         assert "landed and disarmed" in text
         flights = _lines(d / "validation.jsonl")
         assert len(flights) < 12 and all(f["outcome"] == "ok" for f in flights)

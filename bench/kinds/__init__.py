@@ -63,6 +63,11 @@ KINDS = {k.name: k for k in (
          "the validation manoeuvres"),
     Kind("evaluation", "ksbo_bench.kinds.evaluate", ("what",),
          "one deterministic computation that is not a campaign (ksbo_bench.evaluations)"),
+    Kind("fault", "ksbo_bench.kinds.fault", ("fault", "phase", "pilot"),
+         "one case of the fault matrix on ArduCopter SITL: the link cut or the tuner killed at a phase of a short "
+         "campaign, what the vehicle did, what continued it, the parameters against the snapshot"),
+    Kind("wind", "ksbo_bench.kinds.wind", ("speed", "shape"),
+         "a short campaign on ArduCopter SITL in a set wind: the wind the report infers against what the SITL blows"),
     Kind("timing", "ksbo_bench.kinds.timing", ("what",),
          "a pure timing: seconds of one named operation, best of repeats"),
 )}

@@ -53,7 +53,6 @@ def changed_params(ep, stack: str, d: Path) -> list[str]:
     """The vehicle's parameters (read at Endpoint ``ep``, a direct link) that differ from the snapshot of the
     campaign in ``d``, those the ``stack`` autopilot updates itself aside."""
     from ksbo_mav.mav.params import load_snapshot
-    from ksbo_mav.mav.stacks import autopilot_updated
     from ksbo_mav.mav.vehicle import Vehicle
 
     snap = load_snapshot(d)
@@ -62,9 +61,7 @@ def changed_params(ep, stack: str, d: Path) -> list[str]:
         now = {k: p.value for k, p in v.params.table.items()}
     finally:
         v.close()
-    return sorted(k for k, (val, _) in snap.params.items()
-                  if not autopilot_updated(stack, k)
-                  and (k not in now or abs(now[k] - val) > 1e-6 * max(1.0, abs(val))))
+    return sorted(snap.off(now))
 
 
 def mean(xs: list[Any]) -> float | None:

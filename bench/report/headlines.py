@@ -43,6 +43,8 @@ SECTIONS: list[tuple[str, tuple[str, ...], str]] = [
     ("A campaign through a radio-like link", ("link-campaign", "onboard-trial"),
      "Reading: [docs/links.md](docs/links.md), its sections on the radio end to end."),
     ("The same gains at 50, 20 and 10 Hz", ("link-rates",), "Reading: [docs/links.md](docs/links.md)."),
+    ("Stops and wind on ArduCopter SITL: the fault matrix, the inferred wind", ("fault-matrix", "wind-inference"),
+     ""),
     ("Speed", ("speed",), ""),
 ]
 

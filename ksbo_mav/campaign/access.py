@@ -55,6 +55,7 @@ def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], 
         base = snap.baseline()
         v.restore(base)
         remove_leftover_guard(v, snap.params, log)
+        put_back_mission(v, CampaignDir.at(path), log)
         others = [n for n, (val, _) in snap.params.items()
                   if n in v.params.table and n not in base and not autopilot_updated(v.stack.name, n)
                   and not n.startswith("SIM_")
@@ -65,6 +66,19 @@ def restore_snapshot(path: str | Path, endpoint: Endpoint, log: Callable[[str], 
         return base
     finally:
         v.close()
+
+
+def put_back_mission(v: Vehicle, d: CampaignDir, log: Callable[[str], None]) -> None:
+    """The user's stored mission, kept on disk while a validation flight's AUTO mission replaced it (a tuner killed
+    then), uploaded back (verified by the protocol) and its file removed."""
+    if not d.user_mission.is_file():
+        return
+    from ksbo_mav.mav.mission_transfer import MissionTransfer, load_items
+
+    items = load_items(d.user_mission)
+    MissionTransfer(v.link).upload(items)
+    d.user_mission.unlink()
+    log(f"the vehicle's own mission put back ({len(items)} items; a validation flight had replaced it)")
 
 
 def accept_campaign(path: str | Path, endpoint: Endpoint, log: Callable[[str], None] = print,

@@ -16,6 +16,7 @@ from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.campaign.summary import CampaignSummary
 from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.errors import VehicleError
+from ksbo_mav.mav.params import write_param_files
 from ksbo_mav.mav.pilot import tool_modes
 from ksbo_mav.mav.takeoff_landing import land
 from ksbo_mav.mav.vehicle import Vehicle
@@ -53,6 +54,22 @@ def leave_gains(v: Vehicle, d: CampaignDir, accept: bool, base: dict[str, float]
         if accept:
             log(f"--accept refused: {'; '.join(failures)} (`ksbo-mav accept {d.root} --force` writes them anyway)")
     return accepted
+
+
+def export_recommended(d: CampaignDir, best: dict[str, float], v: Vehicle) -> None:
+    """The recommendation as ``recommended.param`` / ``.params`` (Mission Planner, QGroundControl), written with the
+    tune's first result, before any validation flight: what a stop afterwards must not lose."""
+    types = {n: v.params.table[n].ptype for n in best}
+    write_param_files(d.recommended_stem, best, types, v.identity.sysid, v.identity.compid)
+
+
+def landed_by_itself(v: Vehicle, flight: Any) -> str | None:
+    """Why a campaign whose trial lost its link found the vehicle on the ground once the link was back (the onboard
+    guard's LOITER descends where nobody holds the throttle stick), else None."""
+    if flight is None or flight.outcome != "link" or v.link.closed or v.guided.heartbeat is None or v.armed:
+        return None
+    return ("the vehicle landed and disarmed by itself while the link was down (the onboard guard's stop: "
+            "ArduPilot's LOITER descends with the throttle stick low, nobody on the sticks)")
 
 
 def safe_stop(v: Vehicle, base: dict[str, float], where: str, log: Callable[[str], None]) -> None:
@@ -101,17 +118,22 @@ def end_flight(v: Vehicle, end: str, error: bool, log: Callable[[str], None]) ->
         return "unknown"
 
 
-def rewrite_report(d: CampaignDir, profile: Any, log: Callable[[str], None]) -> None:
-    """The report written again from disk after later flights (``ksbo-mav validate``); a report that cannot be made
-    is said, never an error on top of the flights."""
+def rewrite_report(d: CampaignDir, profile: Any, log: Callable[[str], None], draw: bool = True) -> str | None:
+    """The report written again from disk (after later flights, ``ksbo-mav validate``; after a stop, without
+    ``draw``: the page only, quick); a report that cannot be made is said, never an error on top of the flights or
+    the stop. Returns its page, if written."""
+    if not d.exists():
+        return None
     try:
         from ksbo_mav.campaign.report.writer import write_report
 
-        paths = write_report(d, profile)
-        if paths.get("page"):
-            log(f"report: {paths['page']}")
+        page = write_report(d, profile, draw=draw).get("page")
+        if page:
+            log(f"report: {page}")
+        return page
     except Exception as exc:  # noqa: BLE001 - the flights and their journal matter more than the page
         log(f"report not written: {exc}")
+        return None
 
 
 def write_result(d: CampaignDir, summary: CampaignSummary, profile: Any, log: Callable[[str], None]) -> None:

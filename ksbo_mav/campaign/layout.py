@@ -15,7 +15,11 @@ line); it reads and writes ``campaign.json`` itself.
     validation.jsonl         one line per validation flight (never the optimiser's), appended and fsynced
     validation/flight_NNN.tlog   two-way tlog of every validation flight
     validation_start.json    the gains `ksbo-mav validate` found on the vehicle (put back at its end)
-    result.json              recommendation, before/after, safety counts
+    validation/user_mission.json   the vehicle's stored mission while an AUTO validation flight replaces it
+    result.json              recommendation, before/after, safety counts; written once the tune is done, before
+                             the validation flights, and again at the end (``validation``: their state)
+    recommended.param/.params   the recommendation, exported with that first result.json
+    stopped.json             how a campaign that stopped before its end stopped, and the command that continues
     report/                  index.html and its plots (NAME.png)
     accepted.param/.params, diff.txt   written on accept
 """
@@ -97,12 +101,24 @@ class CampaignDir:
         return self.validation_flights / f"flight_{index:03d}{TLOG_SUFFIX}"
 
     @property
+    def user_mission(self) -> Path:
+        return self.validation_flights / "user_mission.json"
+
+    @property
     def validation_start(self) -> Path:
         return self.root / "validation_start.json"
 
     @property
     def result(self) -> Path:
         return self.root / "result.json"
+
+    @property
+    def stopped(self) -> Path:
+        return self.root / "stopped.json"
+
+    @property
+    def recommended_stem(self) -> Path:
+        return self.root / "recommended"
 
     @property
     def report(self) -> Path:

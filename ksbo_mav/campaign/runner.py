@@ -26,26 +26,26 @@ import numpy as np
 from ksbo_mav.campaign.battery import BatteryGuard, await_failsafe, failsafe_active, failsafe_message
 from ksbo_mav.campaign.drift import ConditionWatch, DriftWatch
 from ksbo_mav.campaign.config import CampaignConfig, MissionRate, optimizer_options, prior_kind, settle
-from ksbo_mav.campaign.ending import (confirm_failures, end_flight, fly_confirmations, leave_gains, safe_stop,
-                                      write_result)
+from ksbo_mav.campaign.ending import (confirm_failures, end_flight, export_recommended, fly_confirmations,
+                                      landed_by_itself, leave_gains, rewrite_report, safe_stop, write_result)
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.link_loss_policy import LinkLossChoice, check_link_loss
 from ksbo_mav.campaign.mission_rate import fly_at, record_link
 from ksbo_mav.campaign.plan import campaign_plan
 from ksbo_mav.campaign.prior import campaign_prior
-from ksbo_mav.campaign.report.writer import write_report
 from ksbo_mav.campaign.resume import check_unchanged
 from ksbo_mav.campaign.search import search
 from ksbo_mav.campaign.onboard import install_guard, remove_guard
 from ksbo_mav.campaign.setup import baseline_params, connect, create_campaign
+from ksbo_mav.campaign.stops import EXIT, clear_stop, continue_command, next_phase, set_validation_state, write_stop
 from ksbo_mav.campaign.summary import CampaignSummary, TrialEvent, summarize
 from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.campaign.validation_session import check_validation, validate_after_tune
 from ksbo_mav.campaign.warm_start import Earlier, warm_search
 from ksbo_mav.campaign.wind_preflight import apply_wind_plan
 from ksbo_mav.campaign.widen import widen_search
-from ksbo_mav.errors import CampaignPaused, InputError, KsboError
+from ksbo_mav.errors import CampaignPaused, InputError, KsboError, LinkLost
 from ksbo_mav.mav.approach import check_moving_start
 from ksbo_mav.mav.gains import opt_bounds
 from ksbo_mav.mav.link import Endpoint
@@ -86,9 +86,7 @@ class Campaign:
 
     @property
     def resume_hint(self) -> str:
-        ep = self.endpoint
-        where = f"--{ep.kind} {ep.host}:{ep.port}" if ep.kind in ("udp", "udpout", "tcp") else f"--serial {ep.host}"
-        return f"ksbo-mav tune --resume {self.dir.root} {where}"
+        return continue_command(self.dir, self.endpoint, "tune")
 
     def dry_run(self) -> str:
         """Connect, print the plan, change nothing (and write nothing)."""
@@ -104,7 +102,9 @@ class Campaign:
     def run(self) -> CampaignSummary:
         """Connect and settle the settings, preflight (mission rate and link, baseline, checks), record the
         campaign, fly it (prior, baseline, search, confirmation) and end it (gains, landing, result). A stop on the
-        way restores the baseline and lands, or leaves a failsafe to the autopilot."""
+        way restores the baseline and lands, or leaves a failsafe to the autopilot, and leaves the report of what was
+        flown with the command that continues (:mod:`~ksbo_mav.campaign.stops`); an unexpected error too, as one
+        line (its traceback in ``stopped.json``)."""
         if not self.resume and self.dir.exists():
             raise InputError(f"{self.dir.root} already holds a campaign; use --resume {self.dir.root} or another "
                              "directory")
@@ -119,6 +119,12 @@ class Campaign:
         except (KeyboardInterrupt, KsboError) as exc:
             self._stop(v, exc)
             raise
+        except Exception as exc:  # a bug: the vehicle made safe and the flights kept all the same
+            import traceback
+
+            self._stop(v, exc, traceback.format_exc())
+            raise KsboError(f"unexpected error: {type(exc).__name__}: {exc} (the traceback is in "
+                            f"{self.dir.stopped}; please report it)") from exc
         finally:
             remove_guard(v, self.log)
             v.close()
@@ -184,6 +190,7 @@ class Campaign:
         from threadpoolctl import threadpool_limits
 
         cfg, log = self.cfg, self.log
+        clear_stop(self.dir)  # flying again: an earlier stop's record is history
         x0 = v.gain_map.from_params(self.base)
         bounds = opt_bounds(v.profile, x0)
         trials = self._trials(v)
@@ -216,32 +223,45 @@ class Campaign:
 
     def _end(self, v: Vehicle, trials: TrialLoop, result: Any, unused: Any, x0: np.ndarray, baseline_trial: Any,
              started: float) -> CampaignSummary:
-        """Confirm the recommendation, leave the gains (restored, or accepted), land or hold, write the result."""
+        """Confirm the recommendation and write the tune's result (result.json, the report, the recommendation
+        exported) before any validation flight; then the validation, the gains left (restored, or accepted), land or
+        hold, and the result written again with the validation's state."""
         cfg, log, base, journal = self.cfg, self.log, self.base, trials.journal
         best = np.asarray(result.x, dtype=float)
         confirms = fly_confirmations(trials, best, cfg.confirm)
         wall_s = time.time() - started
         best_params = v.gain_map.to_params(best)
         failures = confirm_failures(journal.of("confirm"))
-        checked = validate_after_tune(v, self.dir, cfg, base, trials, x0, best, failures,
-                                      self.resume_hint.replace("tune --resume", "validate"), log)
-        accepted = leave_gains(v, self.dir, cfg.accept, base, best_params, failures + checked.refusals(), log)
-        on_vehicle = {n: v.params.table[n].value for n in base}
-        ended = end_flight(v, cfg.end, False, log)
-        summary = summarize(journal, result, baseline_x=x0, base=base, baseline_trial=baseline_trial,
-                            best_params=best_params, confirms=confirms, failures=failures, unused=unused,
-                            accepted=accepted, accept=cfg.accept, on_vehicle=on_vehicle, method=cfg.method,
-                            wall_s=wall_s, d=self.dir, ended=ended)
-        if cfg.accept and not accepted:  # the validation's refusal too, not only a failed confirmation
-            summary.accept_refused = "; ".join(failures + checked.refusals())
-        write_result(self.dir, summary, v.profile, log)
-        return summary
+        command = continue_command(self.dir, self.endpoint, "validation")
 
-    def _stop(self, v: Vehicle, exc: BaseException) -> None:
+        def summary(accepted: bool, ended: str, validation: dict[str, Any]) -> CampaignSummary:
+            s = summarize(journal, result, baseline_x=x0, base=base, baseline_trial=baseline_trial,
+                          best_params=best_params, confirms=confirms, failures=failures, unused=unused,
+                          accepted=accepted, accept=cfg.accept, on_vehicle={n: v.params.table[n].value for n in base},
+                          method=cfg.method, wall_s=wall_s, d=self.dir, ended=ended)
+            s.validation = validation
+            return s
+
+        export_recommended(self.dir, best_params, v)
+        write_result(self.dir, summary(False, "", {"state": "pending", "command": command}), v.profile, log)
+        log(f"tuned: the result is on disk ({self.dir.result}, the report, {self.dir.recommended_stem}.param) before "
+            "the validation flights")
+        checked = validate_after_tune(v, self.dir, cfg, base, trials, x0, best, failures, command, log)
+        accepted = leave_gains(v, self.dir, cfg.accept, base, best_params, failures + checked.refusals(), log)
+        s = summary(accepted, end_flight(v, cfg.end, False, log), checked.state(command))
+        if cfg.accept and not accepted:  # the validation's refusal too, not only a failed confirmation
+            s.accept_refused = "; ".join(failures + checked.refusals())
+        write_result(self.dir, s, v.profile, log)
+        clear_stop(self.dir)
+        return s
+
+    def _stop(self, v: Vehicle, exc: BaseException, traceback: str = "") -> None:
         """A campaign stopped on the way: the baseline gains back, and landed — unless the autopilot's failsafe
-        flies the vehicle (never overridden: a resumable pause); a pause writes the report of what was flown."""
+        flies the vehicle (never overridden: a resumable pause) or it landed by itself while the link was down (a
+        pause too); then the stop recorded with the command that continues, and the report of what was flown."""
         log = self.log
         flight = getattr(exc, "flight", None)
+        landed = landed_by_itself(v, flight)  # (before our own landing below)
         failsafe = failsafe_active(v) or (flight is not None and flight.outcome == "failsafe")
         if self.base is not None and not isinstance(exc, InputError):
             safe_stop(v, self.base, str(self.dir.root), log)
@@ -249,23 +269,29 @@ class Campaign:
             await_failsafe(v, log)
         else:
             end_flight(v, self.cfg.end, True, log)
-        if failsafe or isinstance(exc, CampaignPaused):
-            self._report_after_stop(v, log)
-            if failsafe:
-                trial = flight.meta.get("trial") if flight is not None else None
-                raise CampaignPaused(failsafe_message(v, trial, self.resume_hint)) from None
-
-    def _report_after_stop(self, v: Vehicle, log: Callable[[str], None]) -> None:
-        """The report of a campaign stopped to be resumed (what was flown so far); a report that cannot be made is
-        said, never an error on top of the stop."""
-        if not self.dir.exists():
+        if not self.dir.exists() or isinstance(exc, InputError):  # refused before anything flew: nothing to continue
             return
-        try:
-            paths = write_report(self.dir, v.profile)
-            if paths.get("page"):
-                log(f"report: {paths['page']}")
-        except Exception as exc:  # noqa: BLE001 - the stop's own message matters more
-            log(f"report not written: {exc}")
+        phase = next_phase(self.dir) or "tune"
+        command = continue_command(self.dir, self.endpoint, phase)
+        paused: CampaignPaused | None = None
+        if failsafe:
+            trial = flight.meta.get("trial") if flight is not None else None
+            paused = CampaignPaused(failsafe_message(v, trial, command))
+        elif landed:
+            paused = CampaignPaused(f"{exc}; {landed}; the campaign goes on with `{command}`")
+        elif isinstance(exc, LinkLost):  # outside a trial (a takeoff, a landing): the link's doing, not the tool's
+            paused = CampaignPaused(f"{exc} (the link, outside a trial); the campaign goes on with `{command}` once "
+                                    "the link is back")
+        why = str(paused or exc) or "interrupted (Ctrl-C)"
+        status = EXIT["paused"] if paused is not None or isinstance(exc, CampaignPaused) else \
+            EXIT["interrupted"] if isinstance(exc, KeyboardInterrupt) else EXIT["error"]
+        if phase == "validation":
+            set_validation_state(self.dir, {"state": "incomplete", "reason": f"stopped: {why}", "command": command})
+        write_stop(self.dir, why, command, phase, status, traceback)
+        rewrite_report(self.dir, v.profile, log, draw=False)
+        log(f"stopped: `{command}` continues")
+        if paused is not None:
+            raise paused from None
 
 
 def _flies_nothing(_x: np.ndarray) -> float:

@@ -1,5 +1,6 @@
 """What a campaign tells: the progress event after every journalled trial, and the final summary counted from the
-journal (written to ``result.json`` at the very end: :func:`ksbo_mav.campaign.ending.write_result`)."""
+journal (written to ``result.json`` once the tune is done, before the validation flights, and again at the end:
+:func:`ksbo_mav.campaign.ending.write_result`)."""
 
 from __future__ import annotations
 
@@ -69,6 +70,9 @@ class CampaignSummary:
     accept_refused: str = ""
     #: The stopping rule's record and why the search ended (:mod:`ksbo_mav.campaign.search_end`); None: rule off.
     search_end: dict[str, Any] | None = None
+    #: The validation flights' state: "pending" (the tune's first result, written before them), "complete",
+    #: "incomplete" (``reason``, and the ``command`` that flies the rest) or "skipped" (``reason``).
+    validation: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

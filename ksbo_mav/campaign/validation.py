@@ -10,6 +10,11 @@ When the recommendation is worse than the baseline on a manoeuvre (:mod:`ksbo_ma
 candidates from the campaign's best trials are flown the same way, at most ``candidates`` of them, until one is
 worse nowhere. Before each flight the pack must hold one more (:class:`~ksbo_mav.campaign.battery.BatteryGuard`);
 when it does not, the validation stops cleanly and says that ``ksbo-mav validate`` flies the rest later.
+
+A flight that cannot start or fails for a reason that leaves the vehicle ours, hovering with the baseline verified
+(a refusal: sticks off centre for ArduPilot's LOITER, a mission upload or a mode refused; a write not verified) is
+journalled with its reason and its manoeuvre is left out, the others still flown; anything else (the pilot, the
+link, a failsafe, a baseline not verified) stops the validation there (:attr:`ValidationFlights.stopped`).
 """
 
 from __future__ import annotations
@@ -26,13 +31,24 @@ from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.validation_log import BASELINE, RECOMMENDATION, ValidationEntry, ValidationJournal
 from ksbo_mav.campaign.verdict import PairVerdict, judge_pairs
-from ksbo_mav.errors import CampaignPaused, KsboError, PilotTookOver, VehicleError
+from ksbo_mav.errors import KsboError, PilotTookOver, VehicleError
 from ksbo_mav.mav.monitor import Monitor, limits_from_profile
 from ksbo_mav.mav.outcome import TrialOutcome as T
+from ksbo_mav.mav.pilot import tool_modes
 from ksbo_mav.mav.vehicle import Vehicle
 
 #: How often a flight spoiled by this computer or the link (TrialOutcome.retry) is flown again.
 RETRIES = 2
+#: Outcomes after which the other manoeuvres may still be flown (the vehicle ours, the baseline verified).
+SKIPPABLE = (T.ERROR, T.VERIFY, T.TELEMETRY, T.CLIENT)
+
+
+class NotFlown(Exception):
+    """A manoeuvre that could not be flown (``reason``); the others may be."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
 
 
 @dataclass(frozen=True)
@@ -113,15 +129,17 @@ class ValidationFlights:
                  guard: BatteryGuard | None, log: Callable[[str], None], safety: dict[str, float] | None = None,
                  conditions: Any = None) -> None:
         self.v, self.base, self.d, self.plan, self.guard, self.log = v, dict(base), d, plan, guard, log
+        v.mission_file = d.user_mission
         self.journal = ValidationJournal(d.validation_journal)
         self.monitor = Monitor(limits_from_profile(v.profile, safety), v.stack.modes["guided"], v.stack.mode_name)
         self.conditions = conditions
-        self.stopped: str | None = None  # why the validation stopped before the end (the pack), else None
+        self.stopped: str | None = None  # why the validation stopped before the end (the pack, the pilot), else None
+        self.not_flown: dict[str, str] = {}  # manoeuvre -> why it was left out
 
     def run(self, x0: np.ndarray, best: np.ndarray, more: list[tuple[str, np.ndarray]]) -> list[PairVerdict]:
         """The recommendation ``best`` against the baseline ``x0``; while every pair flown so far is worse
         somewhere, the next of ``more`` (:func:`candidates_from`). Returns the verdicts; :attr:`stopped` says why
-        it ended early (the pack)."""
+        it ended early (the pack, the pilot, the link) and :attr:`not_flown` which manoeuvres were left out."""
         pairs = [(RECOMMENDATION, np.asarray(best, float)), *more]
         try:
             for n, (label, x) in enumerate(pairs):
@@ -131,7 +149,7 @@ class ValidationFlights:
                     self.log(f"validation: the gains flown so far are worse than the baseline somewhere; flying the "
                              f"next candidate, {label}")
                 self._pair(label, np.asarray(x0, float), x)
-        except CampaignPaused as exc:
+        except KsboError as exc:  # CampaignPaused (the pack) too; Ctrl-C goes on up
             self.stopped = str(exc)
             self.log(f"validation stopped: {exc}")
         return self.verdicts()
@@ -140,13 +158,20 @@ class ValidationFlights:
         return judge_pairs(self.journal.entries)
 
     def _pair(self, label: str, x0: np.ndarray, x: np.ndarray) -> None:
-        """A B A B ... on each manoeuvre: the slots the journal already holds are skipped (a resume)."""
+        """A B A B ... on each manoeuvre: the slots the journal already holds are skipped (a resume); a manoeuvre
+        that could not be flown is left out (:attr:`not_flown`), the next one flown."""
         for spec in self.plan.manoeuvres:
-            for rep in range(self.plan.repeats):
-                for gains, xg in ((BASELINE, x0), (label, x)):
-                    if len(self.journal.flown(label, spec.kind, gains)) > rep:
-                        continue
-                    self._fly(spec, label, gains, xg)
+            if spec.kind in self.not_flown:
+                continue
+            try:
+                for rep in range(self.plan.repeats):
+                    for gains, xg in ((BASELINE, x0), (label, x)):
+                        if len(self.journal.flown(label, spec.kind, gains)) > rep:
+                            continue
+                        self._fly(spec, label, gains, xg)
+            except NotFlown as exc:
+                self.not_flown[spec.kind] = exc.reason
+                self.log(f"validation: {spec.kind} not flown ({exc.reason}); the other manoeuvres go on")
 
     def _fly(self, spec: Any, pair: str, gains: str, x: np.ndarray) -> ValidationEntry:
         for attempt in range(RETRIES + 1):
@@ -160,12 +185,21 @@ class ValidationFlights:
             done = "restored and verified" if e.restored else "NOT restored - run `ksbo-mav restore`"
             if e.counted and e.restored and not (e.outcome == "crash" and not self.v.is_sim):
                 return e
-            if not e.restored or not e.outcome.retry or attempt == RETRIES or e.counted:
+            # a lost link that came back, the baseline verified and the vehicle ours again: flown again, as a trial
+            again = e.outcome.retry or (e.outcome is T.LINK and e.restored and self._ours())
+            if not e.restored or not again or attempt == RETRIES or e.counted:
+                if e.restored and e.outcome in SKIPPABLE and self._ours():
+                    raise NotFlown(e.message or e.outcome.text)
                 raise VehicleError(f"validation flight {e.flight} ({spec.kind}, {gains}): {e.outcome.text}"
                                    f"{': ' + e.message if e.message else ''}; baseline gains {done}; "
                                    f"`ksbo-mav validate {self.d.root}` flies the rest later")
             self.log(f"validation flight {e.flight} not counted ({e.message or e.outcome.text}); flying it again")
         raise AssertionError("unreachable")
+
+    def _ours(self) -> bool:
+        """Armed in a mode the tool flies in: no pilot, failsafe or landing took the vehicle."""
+        hb = self.v.guided.heartbeat
+        return bool(hb is not None and hb.base_mode & 128 and int(hb.custom_mode) in tool_modes(self.v.stack))
 
     def _next_index(self) -> int:
         on_disk = [int(p.stem.split("_")[1]) for p in self.d.validation_flights.glob("flight_*")

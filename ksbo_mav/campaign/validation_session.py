@@ -25,9 +25,10 @@ from ksbo_mav.campaign.ending import end_flight, rewrite_report, safe_stop
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir, write_file
 from ksbo_mav.campaign.onboard import install_guard, remove_guard
+from ksbo_mav.campaign.stops import EXIT, clear_stop, continue_command, set_validation_state, write_stop
 from ksbo_mav.campaign.validation import ValidationFlights, ValidationPlan, candidates_from
 from ksbo_mav.campaign.verdict import PairVerdict, best_not_worse, refusal
-from ksbo_mav.errors import InputError, KsboError
+from ksbo_mav.errors import CampaignPaused, InputError, KsboError
 from ksbo_mav.mav.link import Endpoint
 from ksbo_mav.mav.params import load_snapshot
 from ksbo_mav.mav.vehicle import Vehicle
@@ -40,6 +41,22 @@ class ValidationReport:
     verdicts: list[PairVerdict] = field(default_factory=list)
     stopped: str | None = None
     skipped: str | None = None  # why nothing was flown (off, no manoeuvres, nothing to compare)
+    not_flown: dict[str, str] = field(default_factory=dict)  # manoeuvre -> why it was left out
+
+    def incomplete(self) -> str | None:
+        """Why some validation flights are missing (manoeuvres left out, a stop), else None."""
+        parts = [f"{kind} not flown ({why})" for kind, why in self.not_flown.items()]
+        if self.stopped:
+            parts.append(f"stopped: {self.stopped}")
+        return "; ".join(parts) or None
+
+    def state(self, command: str) -> dict[str, Any]:
+        """result.json's ``validation``: "complete", "incomplete" (with the reason and the command that flies the
+        rest) or "skipped" (with why)."""
+        if self.skipped:
+            return {"state": "skipped", "reason": self.skipped}
+        why = self.incomplete()
+        return {"state": "incomplete", "reason": why, "command": command} if why else {"state": "complete"}
 
     def refusals(self) -> list[str]:
         """Why ``--accept`` must not leave the recommendation on the vehicle (worse somewhere), else empty."""
@@ -58,8 +75,8 @@ class ValidationReport:
             best = best_not_worse(self.verdicts)
             out.append(f"  best candidate worse nowhere: {best.pair}" if best is not None else
                        "  no candidate flown is worse nowhere: keep the baseline gains")
-        if self.stopped:
-            out.append(f"validation stopped early: {self.stopped}")
+        if self.incomplete():
+            out.append(f"validation incomplete: {self.incomplete()}")
         return out
 
 
@@ -91,8 +108,11 @@ def validate_after_tune(v: Vehicle, d: CampaignDir, cfg: CampaignConfig, base: d
     if why:
         rep = ValidationReport(skipped=why)
     else:
+        # A stop on the way leaves this note: a later `validate` puts the baseline back whatever it finds.
+        write_file(d.validation_start, json.dumps({"which": "baseline", "gains": base}, indent=1))
         rep = fly(v, d, plan, base, Journal(d.journal), x0, best, trials.guard, trials.conditions, hint, log,
                   cfg.safety)
+        d.validation_start.unlink(missing_ok=True)
     for line in rep.lines():
         log(line)
     return rep
@@ -123,7 +143,7 @@ def fly(v: Vehicle, d: CampaignDir, plan: ValidationPlan, base: dict[str, float]
             "to are the tool's; any other mode is a pilot's)")
     flights = ValidationFlights(v, base, d, plan, guard, log, safety=safety, conditions=conditions)
     verdicts = flights.run(x0, best, candidates_from(journal, x0, best, plan.candidates))
-    return ValidationReport(verdicts, flights.stopped)
+    return ValidationReport(verdicts, flights.stopped, not_flown=flights.not_flown)
 
 
 def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None = None, end: str = "land",
@@ -136,6 +156,7 @@ def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None 
 
     d = CampaignDir.at(path)
     settings, result = d.read_settings(), d.read_result()
+    command = continue_command(d, endpoint, "validation")
     cfg = CampaignConfig.from_saved(settings["config"], str(d.config))
     mode = mode or (cfg.validation if cfg.validation != "off" else "quick")
     snap = load_snapshot(d.snapshot)
@@ -155,27 +176,36 @@ def validate_campaign(path: str | Path, endpoint: Endpoint, *, mode: str | None 
         flown = ((settings.get("mission") or {}).get("rate_hz"))
         fly_at(v, MissionRate(int(flown or v.mission.rate_hz), lowerable=False), log)
         install_guard(v, cfg.onboard_guard, home, cfg.safety, log)  # its baseline: the gains put back after each
-        where = _where(endpoint)
-        rep = fly(v, d, plan, home, Journal(d.journal), x0, best,
-                  BatteryGuard(v, f"ksbo-mav validate {d.root} {where}"), ConditionWatch(v),
-                  f"ksbo-mav validate {d.root} {where}", log, cfg.safety)
+        set_validation_state(d, {"state": "pending", "command": command})  # a killed validate: restore says so
+        rep = fly(v, d, plan, home, Journal(d.journal), x0, best, BatteryGuard(v, command), ConditionWatch(v),
+                  command, log, cfg.safety)
+        set_validation_state(d, rep.state(command))
         v.restore(home)
         d.validation_start.unlink(missing_ok=True)  # done: a later validate notes what it finds then
         log("the gains found on the vehicle are back, verified by a fresh read")
         end_flight(v, end, False, log)
-    except (KeyboardInterrupt, KsboError):
+    except (KeyboardInterrupt, KsboError) as exc:
         if home is not None:
             safe_stop(v, home, str(d.root), log)
             if failsafe_active(v):
                 await_failsafe(v, log)
             else:
                 end_flight(v, end, True, log)
+            why = str(exc) or "interrupted (Ctrl-C)"
+            set_validation_state(d, {"state": "incomplete", "reason": f"stopped: {why}", "command": command})
+            write_stop(d, why, command, "validation", EXIT["interrupted" if isinstance(exc, KeyboardInterrupt)
+                                                              else "paused" if isinstance(exc, CampaignPaused)
+                                                              else "error"])
+            rewrite_report(d, v.profile, log, draw=False)
+            log(f"validation stopped: `{command}` flies the rest")
         raise
     finally:
         remove_guard(v, log)
         v.close()
     for line in rep.lines():
         log(line)
+    if rep.incomplete() is None:
+        clear_stop(d)
     rewrite_report(d, v.profile, log)
     return rep
 
@@ -202,6 +232,3 @@ def _home_gains(v: Vehicle, d: CampaignDir, base: dict[str, float], best: dict[s
     log(f"validation: the vehicle holds the {which} gains; they are put back after every flight and at the end")
     return home
 
-
-def _where(ep: Endpoint) -> str:
-    return f"--{ep.kind} {ep.host}:{ep.port}" if ep.kind in ("udp", "udpout", "tcp") else f"--serial {ep.host}"

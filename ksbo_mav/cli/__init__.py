@@ -15,7 +15,7 @@ from ksbo_mav.errors import CampaignPaused, KsboError
 
 #: Command modules, in the order `--help` lists them.
 COMMANDS: tuple[str, ...] = ("evaluate", "sim", "prior", "select", "tune", "report", "score", "compare", "check",
-                             "validate", "restore", "accept", "demo")
+                             "validate", "restore", "accept", "demo", "sim-pilot")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -31,7 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"ksbo-mav {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
-        importlib.import_module(f"ksbo_mav.cli.{name}").add_parser(sub)
+        importlib.import_module(f"ksbo_mav.cli.{name.replace('-', '_')}").add_parser(sub)
     return parser
 
 

@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from ksbo_mav.campaign.settings import SETTING
+from ksbo_mav.campaign.stops import EXIT, EXIT_TEXT
 from ksbo_mav.cli.common import add_connection_args, endpoint_from_args, to_json
 from ksbo_mav.errors import InputError
 from ksbo_mav.opt import METHODS
@@ -32,10 +33,13 @@ def add_parser(subparsers) -> None:
         "tune", add_help=False, help="tune a vehicle's gains over MAVLink (safe BO, journalled, restorable)",
         usage="ksbo-mav tune (DIR | --resume DIR) (--udp | --udp-out | --tcp | --serial ADDRESS) [options]",
         description="Snapshots every parameter to DIR, flies the baseline gains and then figure-8 trials chosen by "
-                    "safe Bayesian optimisation, restores the baseline gains (unless --accept), lands (unless --end "
-                    "hold) and writes the report DIR/report/index.html. Ctrl-C aborts the trial, restores the "
-                    "baseline and lands. Every option is checked before anything is connected or written; the "
-                    "settings, their defaults and allowed values: docs/settings.md.")
+                    "safe Bayesian optimisation, writes the result (DIR/result.json, DIR/report/index.html, "
+                    "DIR/recommended.param) before the validation flights, restores the baseline gains (unless "
+                    "--accept), lands (unless --end hold) and writes the result again. Ctrl-C aborts the trial, "
+                    "restores the baseline and lands. Any stop leaves the report of what was flown and prints the "
+                    "one command that continues. Every option is checked before anything is connected or written; "
+                    "the settings, their defaults and allowed values: docs/settings.md.",
+        epilog=EXIT_TEXT.replace("%", "%%"))
     g = add_connection_args(p)
     g.add_argument("--accept-link-loss-risk", action="store_true", help="PX4 on a link away from the vehicle (a "
                    "radio): fly anyway, although a lost link leaves the trial gains flying in PX4's failsafe")
@@ -229,4 +233,8 @@ def run(args: argparse.Namespace) -> int:
         print(to_json(summary.to_dict()))
     else:
         print_summary(summary, print)
-    return 0
+    checked = summary.validation or {}
+    if checked.get("state") == "incomplete":
+        display.log(f"tuned; validation incomplete: {checked['reason']}; `{checked['command']}` flies the rest")
+        return EXIT["unvalidated"]
+    return EXIT["ok"]

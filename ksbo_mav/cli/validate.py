@@ -18,7 +18,9 @@ def add_parser(subparsers) -> None:
                     "journal already holds are not flown again. The gains found on the vehicle (the baseline, or "
                     "the accepted recommendation) are put back after every flight and at the end. Prints, per "
                     "manoeuvre, better / no measurable change / worse (beyond the repeats' spread) and rewrites "
-                    "DIR/report/index.html.")
+                    "DIR/report/index.html. Exit status: 0 validated; 4 incomplete (a manoeuvre that could not be "
+                    "flown, the pack; the console says why, and running it again flies the rest); 2 an error; 130 "
+                    "Ctrl-C.")
     p.add_argument("dir", metavar="DIR", help="a finished campaign's directory")
     p.add_argument("--validation", choices=("quick", "full"), default=None,
                    help="quick: the profile's repeats; full: its full_repeats and more candidates (default: the "
@@ -34,4 +36,6 @@ def run(args: argparse.Namespace) -> int:
 
     rep = validate_campaign(args.dir, endpoint_from_args(args), mode=args.validation, end=args.end,
                             log=lambda s: print(s), timeout=args.timeout, sysid=args.sysid, compid=args.compid)
-    return 3 if rep.stopped else 0
+    from ksbo_mav.campaign.stops import EXIT
+
+    return EXIT["unvalidated"] if rep.incomplete() else EXIT["ok"]

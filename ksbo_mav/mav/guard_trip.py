@@ -71,13 +71,33 @@ def _guards_stop(v: Vehicle) -> bool:
                 and int(hb.custom_mode) in (cfg.brake_mode, cfg.safe_mode))
 
 
+def _landed_in_guards_mode(v: Vehicle) -> bool:
+    """Disarmed on the ground in the guard's BRAKE or safe mode: its stop came down where nobody held the sticks."""
+    hb, cfg = v.guided.heartbeat, v.guard.config if v.guard is not None else None
+    height = v.guided.height() if v.guided.position() is not None else None
+    return bool(hb is not None and cfg is not None and not hb.base_mode & 128 and height is not None and height < 1.0
+                and int(hb.custom_mode) in (cfg.brake_mode, cfg.safe_mode))
+
+
 def classify(v: Vehicle, outcome: T, message: str, trip: GuardTrip | None) -> tuple[T, str]:
     """A flight that the guard stopped for the gains (a gain-caused trip, the vehicle still in its BRAKE or safe
     mode) and that the monitor ended as a pilot's mode change, or did not end at all (the tuner ended the watch
-    before it saw the new mode), gets that trip's outcome; everything else stays as it is."""
-    if outcome not in (T.PILOT, T.OK) or trip is None or trip.outcome is None or not _guards_stop(v):
+    before it saw the new mode), gets that trip's outcome; one the guard stopped because the tuner's heartbeat
+    stopped reaching it while the tuner still heard the vehicle (a tuner held up by a busy computer, a one-way
+    link) is a lost link, not a pilot, and so is a vehicle that then landed and disarmed in the guard's mode (not a
+    crash: nobody held the sticks); everything else stays as it is."""
+    if trip is not None and trip.code == LINK_TRIP and outcome is T.CRASH and _landed_in_guards_mode(v):
+        return T.LINK, ("the onboard guard stopped hearing the tuner (the tuner held up, or the link one way) and the "
+                        f"vehicle landed and disarmed in its {v.stack.mode_name(int(v.guided.heartbeat.custom_mode))} "
+                        "(nobody on the sticks)")
+    if outcome not in (T.PILOT, T.OK) or trip is None or not _guards_stop(v):
         return outcome, message
     mode = v.stack.mode_name(int(v.guided.heartbeat.custom_mode))
+    if trip.code == LINK_TRIP:
+        return T.LINK, (f"the onboard guard stopped hearing the tuner and switched to {mode} (the tuner held up, or "
+                        "the link one way)")
+    if trip.outcome is None:
+        return outcome, message
     return trip.outcome, f"{trip.outcome.text} on board (the guard switched to {mode})"
 
 

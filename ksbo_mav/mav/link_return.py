@@ -118,7 +118,8 @@ def take_back(v: Vehicle, found: LinkReturn) -> str:
     if g.in_mode("guided") and g.armed:
         return ""
     if not found.ours_to_take_back:
-        return "left as it is (not the guard's doing)"
+        return ("left as it is (landed and disarmed)" if not found.armed
+                else "left as it is (not the guard's doing)")
     guided_here(v)
     return f"taken back from {found.mode} to GUIDED"
 

@@ -19,7 +19,9 @@ of metres across), altitude above home (HOME_POSITION).
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, dataclass
+import json
+from dataclasses import asdict, astuple, dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -35,6 +37,17 @@ ACK_ACCEPTED = 0
 ACK_TEXT = {1: "error", 2: "unsupported frame", 3: "unsupported command", 4: "no space", 5: "invalid",
             6: "invalid param1", 7: "invalid param2", 8: "invalid param3", 9: "invalid param4", 10: "invalid x",
             11: "invalid y", 12: "invalid z", 13: "out of sequence", 14: "denied", 15: "operation cancelled"}
+
+
+def save_items(path: Path, items: list["MissionItem"]) -> None:
+    """Keep a mission on disk (atomically, durably): the user's stored mission while a flight of ours replaces it."""
+    from ksbo_mav.jsonio import fsync_write
+
+    fsync_write(path, json.dumps([asdict(i) for i in items]))
+
+
+def load_items(path: Path) -> list["MissionItem"]:
+    return [MissionItem(**doc) for doc in json.loads(path.read_text())]
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ksbo_mav.errors import PilotTookOver, PreflightError, TrialInterrupted, TrialStopped, VehicleError
+from ksbo_mav.errors import LinkLost, PilotTookOver, PreflightError, TrialInterrupted, TrialStopped, VehicleError
 from ksbo_mav.mav.approach import Approach, check_moving_start, start_velocity, stress_velocity
 from ksbo_mav.mav.monitor import Monitor, limits_from_profile
 from ksbo_mav.mav.outcome import TrialOutcome as T
@@ -99,9 +99,9 @@ class MavlinkObjective:
         approach = Approach(m.start_ned(), u, m.dt)
         try:
             v.ensure_airborne(self.log, at=approach.begin)
-        except (PreflightError, PilotTookOver):
+        except (PreflightError, PilotTookOver, LinkLost):  # a lost link: a pause for the campaign (exit 3)
             raise
-        except VehicleError as exc:  # link trouble while getting ready is not the gains' fault either
+        except VehicleError as exc:  # trouble while getting ready is not the gains' fault either
             raise PreflightError(str(exc)) from None
         i, self.index = self.index, self.index + 1
         stem = self.out_dir / f"trial_{i:03d}"

@@ -138,13 +138,15 @@ class TrialFlight:
             # The guard's watch ends before our own recovery (it must not fight it); after a lost link, once the
             # link is back (the restore waits for it). A mode change that is the guard's own stop for the gains'
             # breach is that breach, not a pilot's.
-            guard_note, trip = guard_trip.end_watch(v) if outcome is not T.LINK else ("", None)
+            lost = outcome is T.LINK  # the tuner lost the vehicle (else the guard may have lost the tuner)
+            guard_note, trip = guard_trip.end_watch(v) if not lost else ("", None)
             outcome, message = guard_trip.classify(v, outcome, message, trip)
             restored, late = self._finish(rec, outcome, L, v.gain_map.to_params(x))
-            if outcome is T.LINK:
+            if lost:
                 guard_note, back = self._after_link(restored)
             elif restored:
                 guard_note = self._take_back(trip, guard_note)
+                back = outcome is T.LINK and v.guided.wait(2.0, lambda: v.guided.armed and v.guided.in_mode("guided"))
             if late is not None:  # the vehicle crashed right after the trial, as the baseline took over
                 outcome, message = late
             if guard_note:

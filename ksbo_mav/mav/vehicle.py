@@ -68,6 +68,8 @@ class Vehicle:
         #: in the report.
         self.firmware_check = check_firmware(stack.name, identity.flight_sw_version, gain_map.generation,
                                              px4_generation(params.table) if stack.name == "px4" else "")
+        #: Where a validation's AUTO mission keeps the user's stored mission while it replaces it (None: memory only).
+        self.mission_file: Any = None
 
     # --- preflight -----------------------------------------------------------------------------------------
     @classmethod

@@ -10,6 +10,7 @@ estimated is shown as "not estimated by the vehicle", never as its zero.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 
@@ -42,3 +43,32 @@ def wind_source_text(stack: str) -> str:
     if stack == "px4":
         return "EKF2 drag, airspeed and sideslip fusion off"
     return "the autopilot does not estimate it"
+
+
+def simulated_wind(params: Mapping[str, float], height_m: float) -> tuple[float, float, str] | None:
+    """The wind a simulator blows at ``height_m`` above home, from its own parameters: (speed m/s, where it blows
+    from in degrees, how that was read), or None for a vehicle that is no simulator we know.
+
+    ArduPilot SITL: ``SIM_WIND_SPD`` from ``SIM_WIND_DIR`` (where it comes from), shaped by ``SIM_WIND_T``: 0 (the
+    default) the square-root profile, ``SPD * sqrt(h / SIM_WIND_T_ALT)`` below ``SIM_WIND_T_ALT`` (60 m: at 10 m,
+    41 % of the set speed); 1 the set speed at every height; 2 ``SPD + (h - T_ALT) * SIM_WIND_T_COEF``.
+    ``SIM_WIND_TURB`` adds gusts around it. PX4 SIH (newer builds): ``SIH_WIND_N`` / ``SIH_WIND_E``, the vector
+    the wind comes from (SIH flies ``v_apparent = v + wind``), the same at every height."""
+    if "SIM_WIND_SPD" in params:
+        spd, kind = float(params["SIM_WIND_SPD"]), int(params.get("SIM_WIND_T", 0))
+        alt, coef = float(params.get("SIM_WIND_T_ALT", 60.0)), float(params.get("SIM_WIND_T_COEF", 0.01))
+        turb = float(params.get("SIM_WIND_TURB", 0.0))
+        if kind == 0 and height_m < alt:
+            speed = spd * math.sqrt(max(height_m, 0.0) / alt)
+            how = f"SIM_WIND_SPD {spd:g} m/s shaped by SIM_WIND_T 0, the square-root profile up to {alt:g} m"
+        elif kind == 2:
+            speed, how = max(0.0, spd + (height_m - alt) * coef), f"SIM_WIND_SPD {spd:g} m/s, SIM_WIND_T 2"
+        else:
+            speed, how = spd, f"SIM_WIND_SPD {spd:g} m/s" + (", SIM_WIND_T 1: the same at every height" if kind == 1
+                                                             else "")
+        gusts = f", gusts SIM_WIND_TURB {turb:g}" if turb > 0 else ""
+        return speed, float(params.get("SIM_WIND_DIR", 0.0)) % 360.0, how + gusts
+    if "SIH_WIND_N" in params and "SIH_WIND_E" in params:
+        n, e = float(params["SIH_WIND_N"]), float(params["SIH_WIND_E"])
+        return math.hypot(n, e), (math.degrees(math.atan2(e, n)) + 360.0) % 360.0, "SIH_WIND_N / SIH_WIND_E"
+    return None

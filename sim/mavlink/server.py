@@ -45,7 +45,7 @@ from ksbo_sim.mavlink.mission_store import MissionStore
 from ksbo_sim.mavlink.params import ParamTable
 from ksbo_sim.mavlink.personality import Personality
 from ksbo_sim.mavlink.power import Power
-from ksbo_sim.mavlink.telemetry import HEARTBEAT, LOCAL_POSITION_NED, Telemetry
+from ksbo_sim.mavlink.telemetry import HEARTBEAT, LOCAL_POSITION_NED, RC_THROTTLE, Telemetry
 from ksbo_sim.vehicle import ParamSpec, VehicleModel
 
 #: Wall seconds between HEARTBEATs while the simulated clock stands still or runs slower than real time.
@@ -107,7 +107,7 @@ class Server:
         self.ftp = FtpServer(lambda payload, sysid, compid: self.mav.file_transfer_protocol_send(0, sysid, compid,
                                                                                                  payload))
         self.guard = SimGuard(self)
-        own = endpoint_specs() + self.power.params + guard_params(personality.gcs_sysid_param)
+        own = endpoint_specs() + self.power.params + guard_params(personality.gcs_sysid_param) + [RC_THROTTLE]
         self._own = {s.name for s in own}
         self.params = ParamTable(list(model.param_specs()) + own, self._param_changed, personality.encoding,
                                  readonly=("SIM_LOCKSTEP",), volatile=FAULT_PARAMS + GUARD_VOLATILE, path=params_path,
@@ -117,6 +117,7 @@ class Server:
             self._param_changed(name, self.params[name])
         self.params.send = self._send_param
         self.params.statustext = self.telemetry.statustext
+        self.telemetry.rc_throttle = lambda: int(self.params["SIM_RC_THR"])
         self.params.write_fault = self._write_fault
         self._fault_rng = np.random.default_rng(seed)
         for name, value in (overrides or {}).items():

@@ -15,6 +15,7 @@ from ksbo_sim.mavlink.flight import Flight
 from ksbo_sim.mavlink.mission_store import HOME
 from ksbo_sim.mavlink.personality import Mode, Personality
 from ksbo_sim.mavlink.power import Power
+from ksbo_sim.vehicle import ParamSpec
 
 HEARTBEAT, SYS_STATUS, SYSTEM_TIME, ATTITUDE, LOCAL_POSITION_NED = 0, 1, 2, 30, 32
 SERVO_OUTPUT_RAW, ACTUATOR_OUTPUT_STATUS, AUTOPILOT_VERSION = 36, 375, 148
@@ -33,6 +34,11 @@ STREAM_GROUPS = {2: (SYS_STATUS,), 3: (SERVO_OUTPUT_RAW, ACTUATOR_OUTPUT_STATUS)
 _SENSORS = 0x1 | 0x2 | 0x20 | 0x8000  # gyro, accel, GPS-like position, motor outputs
 
 
+#: The simulated transmitter's throttle stick, reported in RC_CHANNELS (1500 centred; 1000 rests low, as on an
+#: ArduCopter SITL bench without a pilot, where LOITER refuses to hold).
+RC_THROTTLE = ParamSpec("SIM_RC_THR", 1500, 800, 2200, "INT32", "RC_CHANNELS' throttle [us] (1000: a bench, no pilot)")
+
+
 class Telemetry:
     def __init__(self, mav: mavlink.MAVLink, flight: Flight, personality: Personality, product_id: int,
                  power: Power | None = None) -> None:
@@ -46,6 +52,7 @@ class Telemetry:
         self.due = {m: 0 for m in self.intervals}
         self.boot_unix_us = int(time.time() * 1e6)
         self.drop_rate = 0.0
+        self.rc_throttle = lambda: 1500  # SIM_RC_THR: the simulated transmitter's throttle stick (us)
         self.heartbeat_wall = 0.0  # time.monotonic() of the last HEARTBEAT sent
         self.thrust_max = float(getattr(flight.model, "thrust_max", 1.0))
 
@@ -114,7 +121,7 @@ class Telemetry:
             mav.autopilot_version_send(self.p.capabilities, self.p.flight_sw_version, 0, 0, 0, custom,
                                        [0] * 8, [0] * 8, self.p.vendor_id, self.product_id, 0)
         elif msg_id == RC_CHANNELS:  # a transmitter with its sticks centred (the pilot lets the autopilot fly)
-            mav.rc_channels_send(ms, 8, *([1500] * 8 + [0] * 10), 255)
+            mav.rc_channels_send(ms, 8, 1500, 1500, self.rc_throttle(), *([1500] * 5 + [0] * 10), 255)
         elif msg_id in (GPS_GLOBAL_ORIGIN, HOME_POSITION):  # home is the local frame's origin, on the ground
             lat, lon, alt = int(round(HOME[0] * 1e7)), int(round(HOME[1] * 1e7)), int(round(HOME[2] * 1000))
             if msg_id == GPS_GLOBAL_ORIGIN:

@@ -102,7 +102,7 @@ def counts(rec: CampaignRecord) -> dict[str, int]:
 
 def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Sequence[EdgeHit]) -> list[tuple[str, str]]:
     """(label, XHTML) rows of the verdict box; a new fact (e.g. batteries) is one more row."""
-    rows: list[tuple[str, str]] = []
+    rows: list[tuple[str, str]] = status_rows(result)
     base = [r.rms for r in rec.of("baseline", "baseline re-flight") if r.entry.outcome == "ok"]
     flown = rec.of("confirmation")
     conf = [r.rms for r in flown if r.entry.outcome == "ok"]
@@ -159,6 +159,24 @@ def verdict_rows(rec: CampaignRecord, result: dict[str, Any] | None, hits: Seque
         rows.append(("Search box", "".join(f'<div class="edge">{esc(h.message())}</div>' for h in hits)))
     elif result:
         rows.append(("Search box", "the recommendation lies inside the search box"))
+    return rows
+
+
+def status_rows(result: dict[str, Any] | None) -> list[tuple[str, str]]:
+    """Where the campaign stands when it is not done: stopped (why, the command that continues), or tuned with its
+    validation flights pending or incomplete (the command that flies the rest)."""
+    rows = []
+    stopped = (result or {}).get("stopped")
+    if stopped:
+        rows.append(("Stopped", f'<span class="warn">{esc(stopped["reason"])}</span><br/>continue: '
+                                f'<code>{esc(stopped["command"])}</code>'))
+    checked = (result or {}).get("validation") or {}
+    if checked.get("state") == "incomplete":
+        rows.append(("Status", esc(f"tuned; validation incomplete: {checked.get('reason')}; ")
+                     + f'<code>{esc(checked.get("command"))}</code> flies the rest'))
+    elif checked.get("state") == "pending":
+        rows.append(("Status", "tuned; the validation flights not flown yet: "
+                     f'<code>{esc(checked.get("command"))}</code> flies them'))
     return rows
 
 
@@ -224,6 +242,7 @@ def render(rec: CampaignRecord, result: dict[str, Any] | None, hits: Sequence[Ed
 </table></div>
 {(result or {}).get("validation_html", "")}
 <h2>Plots</h2>
+{f"<p>{esc(result['plots_note'])}</p>" if (result or {}).get("plots_note") else ""}
 {figures}
 <h2>Trials</h2>
 <p>Numbered as on the console. Gains in the vehicle's units.</p>

@@ -70,7 +70,8 @@ def flight_table(entries: Sequence[ValidationEntry]) -> str:
     for e in entries:
         value = e.metrics.get(DECIDING.get(e.manoeuvre, ""), e.metrics.get(FALLBACK.get(e.manoeuvre, "")))
         outcome = "completed" if e.outcome == "ok" else (
-            f"aborted by the monitor ({e.outcome.text})" if e.counted else f"not counted ({e.outcome.text})")
+            f"aborted by the monitor ({e.outcome.text})" if e.counted else
+            f"not counted ({e.outcome.text}" + (f": {e.message[:300]})" if e.message else ")"))
         rows.append(f'<tr><td>{e.flight}</td><td class="l">{_esc(e.manoeuvre)}</td><td class="l">{_esc(e.pair)}</td>'
                     f'<td class="l">{_esc(e.gains)}</td><td class="l o">{_esc(outcome)}</td>'
                     f'<td>{_esc("–" if value is None else format(value, ".4g"))}</td>'

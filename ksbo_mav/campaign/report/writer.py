@@ -81,6 +81,25 @@ def box_edge_lines(d: CampaignDir | str | Path, result: dict[str, Any] | None = 
     return [m.message() for m in moves] + [h.message() for h in box_edges(rec, result["best"]["x"], profile, limits)]
 
 
+def simulator_wind(d: CampaignDir, rec: CampaignRecord) -> str | None:
+    """What a simulated vehicle's own parameters (as the snapshot holds them) say blows at the mission's height: the
+    truth the inferred wind is read against on a bench (:func:`~ksbo_mav.mav.wind_source.simulated_wind`)."""
+    from ksbo_mav.mav.params import load_snapshot
+    from ksbo_mav.mav.wind_source import simulated_wind
+
+    try:
+        params = {n: v for n, (v, _) in load_snapshot(d.snapshot).params.items()}
+    except Exception:  # noqa: BLE001 - no snapshot, no simulator figure
+        return None
+    height = float((rec.settings.get("mission") or {}).get("center_up", 10.0))
+    blown = simulated_wind(params, height)
+    if blown is None:
+        return None
+    speed, frm, how = blown
+    return (f"the simulator blows {speed:.1f} m/s from {frm:.0f}° at the mission's {height:g} m ({how}; as the "
+            "snapshot holds it)")
+
+
 def _trajectory_plot(rec: CampaignRecord, path: Path) -> str | None:
     """Baseline against the last completed confirmation flight, in the mission's frame."""
     from ksbo_mav.plotting import plot_trajectories, scored_span
@@ -102,9 +121,32 @@ def _trajectory_plot(rec: CampaignRecord, path: Path) -> str | None:
                                  kind=kind, scored=scored_span(info)))
 
 
-def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[str, Any] | None = None
-                 ) -> dict[str, str]:
-    """Write the report's plots and its page under ``d``/report; returns {name: path}.
+def _draw(d: CampaignDir, rec: CampaignRecord, best_x: Any, limits: Any, hits: list[EdgeHit]) -> dict[str, str]:
+    """The report's plots drawn; {name: path, or "none" where there is nothing to show}."""
+    from ksbo_mav.campaign.report.conditions import plot_conditions
+
+    paths: dict[str, str] = {
+        "convergence": plot_convergence(rec, d.report_plot("convergence")),
+        "gains": plot_gains(rec, None if best_x is None else rec.to_params(best_x), limits, hits,
+                            d.report_plot("gains")),
+    }
+    traj = _trajectory_plot(rec, d.report_plot("trajectory"))
+    if traj:
+        paths["trajectory"] = traj
+    paths["safety"] = plot_safety(rec, d.report_plot("safety")) or "none"
+    paths["conditions"] = plot_conditions(rec, d.report_plot("conditions")) or "none"
+    return paths
+
+
+#: The report's plots, by the name of their file under report/.
+PLOT_NAMES = ("convergence", "gains", "trajectory", "safety", "conditions")
+
+
+def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[str, Any] | None = None,
+                 draw: bool = True) -> dict[str, str]:
+    """Write the report's plots and its page under ``d``/report; returns {name: path}. Without ``draw`` (a stop:
+    it must be quick, and drawing takes seconds to minutes on a loaded computer) only the page is written, with the
+    plots as last drawn, if any, and a line saying that ``ksbo-mav report DIR`` draws them anew.
 
     Plots: convergence.png, gains.png, trajectory.png (when the baseline and a confirmation flight completed) and
     safety.png (only when a trial was unsafe, aborted, crashed or interrupted; else {"safety": "none"}); the page
@@ -112,7 +154,7 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     profile (default: the one the campaign names), for the profile's own gain limits.
     """
     from ksbo_mav.campaign.drift import load_drift
-    from ksbo_mav.campaign.report.conditions import plot_conditions, same_condition, wind_summary
+    from ksbo_mav.campaign.report.conditions import same_condition, wind_summary
     from ksbo_mav.campaign.report.page import write_page
     from ksbo_mav.campaign.report.validation_table import validation_section, verdict_lines
     from ksbo_mav.campaign.validation_log import ValidationJournal
@@ -130,24 +172,28 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     best_x = ((result or {}).get("best") or {}).get("x")  # none when the campaign recommended nothing
     rec, limits, moves = widened_record(d, rec, profile)
     hits = box_edges(rec, best_x, profile, limits) if best_x is not None else []
-    paths: dict[str, str] = {
-        "convergence": plot_convergence(rec, d.report_plot("convergence")),
-        "gains": plot_gains(rec, None if best_x is None else rec.to_params(best_x), limits, hits,
-                            d.report_plot("gains")),
-    }
-    traj = _trajectory_plot(rec, d.report_plot("trajectory"))
-    if traj:
-        paths["trajectory"] = traj
-    paths["safety"] = plot_safety(rec, d.report_plot("safety")) or "none"
-    paths["conditions"] = plot_conditions(rec, d.report_plot("conditions")) or "none"
+    if draw:
+        paths = _draw(d, rec, best_x, limits, hits)
+    else:
+        paths = {k: str(d.report_plot(k)) for k in PLOT_NAMES if d.report_plot(k).is_file()}
+        result = {**(result or {}), "plots_note": f"Plots {'as last drawn, before this stop' if paths else 'not drawn'}"
+                  f": `ksbo-mav report {d.root}` draws them from every flight on disk."}
     drift, same = load_drift(d), same_condition(rec)
     wind = wind_summary(rec)
+    blown = simulator_wind(d, rec)
+    if wind and blown:
+        wind = f"{wind}; {blown}"
     if wind:
         result = {**(result or {}), "wind": wind}
     flown = ValidationJournal(d.validation_journal).entries
     if flown:
         result = {**(result or {}), "validation_lines": verdict_lines(flown),
                   "validation_html": validation_section(flown)}
+    from ksbo_mav.campaign.stops import read_stop
+
+    stop = read_stop(d)
+    if stop is not None:
+        result = {**(result or {}), "stopped": {"reason": stop.reason, "command": stop.command}}
     if drift:
         result = {**(result or {}), "drift": drift}
     if same:

@@ -54,6 +54,14 @@ class Snapshot:
         """{vehicle name: value} of the tuned gains when the snapshot was taken."""
         return {n: self.params[n][0] for n in self.gain_names}
 
+    def off(self, now: dict[str, float]) -> dict[str, tuple[float, float | None]]:
+        """Parameters whose value in ``now`` (a full read of the vehicle) is not the snapshot's, or missing, except
+        those the autopilot writes itself (``ksbo_mav.mav.stacks.AUTOPILOT_UPDATED``): {name: (snapshot, now)}."""
+        from ksbo_mav.mav.stacks import autopilot_updated
+
+        return {n: (v, now.get(n)) for n, (v, _) in self.params.items() if not autopilot_updated(self.stack, n)
+                and (n not in now or abs(now[n] - v) > 1e-6 * max(1.0, abs(v)))}
+
 
 def write_snapshot(stem: Path, identity: dict[str, Any], stack: str, generation: str, profile: str,
                    gain_names: list[str], table: dict[str, Param]) -> Snapshot:

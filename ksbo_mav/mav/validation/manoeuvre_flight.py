@@ -127,11 +127,13 @@ def fly_manoeuvre(vehicle: Vehicle, spec: ManoeuvreSpec, monitor: Monitor, *, ga
         except KsboError as exc:
             outcome, message = T.ERROR, str(exc)
         # The guard's watch ends before our own recovery; after a lost link, once the link is back.
-        note, trip = end_watch(v) if outcome is not T.LINK else ("", None)
+        lost = outcome is T.LINK  # the tuner lost the vehicle (else the guard may have lost the tuner: classify)
+        note, trip = end_watch(v) if not lost else ("", None)
         outcome, message = classify(v, outcome, message, trip)
         restored, problems = _finish(frame, outcome, baseline_params, link_wait_s)
         if outcome is T.LINK:
-            note, trip = end_watch(v)
+            if lost:
+                note, trip = end_watch(v)
             problems += _take_back(v, trip, restored)
         problems = [note, *problems] if note else problems
         if problems:

@@ -1,14 +1,15 @@
 """A waypoint mission flown by the autopilot's own navigation (ArduPilot AUTO, PX4 Mission) at its own speeds.
 
-The user's stored mission is downloaded first and put back afterwards (or the mission cleared when there was none),
-whatever the outcome, once the vehicle is back in guided/offboard or left to the pilot. The mission's waypoints go
-up with the mission protocol (:mod:`ksbo_mav.mav.mission_transfer`), the vehicle switches to its auto mode and flies
-them; the flight ends when the vehicle reports the last item reached (MISSION_ITEM_REACHED) or is within
-``arrive_m`` of it, plus ``settle_s`` to see it stop. PX4 switches to Hold (AUTO.LOITER) by itself once its mission
-is finished: from the last item's report on, that mode is no take-over. PX4's waypoints carry their own acceptance
-radius (:func:`px4_accept_m`): PX4 main no longer sets a multicopter's ``NAV_ACC_RAD`` to 2 m, and its 10 m default
-is wider than the legs, so every item counted as reached the moment the mission started (measured: "Mission
-finished, loitering" 48 ms after "Executing Mission"). Cross-track, corner and completion figures are
+The user's stored mission is downloaded first (kept on disk too, where the vehicle's ``mission_file`` says: a campaign's
+``ksbo-mav restore`` puts it back after a tuner killed mid-flight) and put back afterwards (or the mission cleared when
+there was none), whatever the outcome, once the vehicle is back in guided/offboard or left to the pilot. The mission's
+waypoints go up with the mission protocol (:mod:`ksbo_mav.mav.mission_transfer`), the vehicle switches to its auto
+mode and flies them; the flight ends when the vehicle reports the last item reached (MISSION_ITEM_REACHED) or is
+within ``arrive_m`` of it, plus ``settle_s`` to see it stop. PX4 switches to Hold (AUTO.LOITER) by itself once its
+mission is finished: from the last item's report on, that mode is no take-over. PX4's waypoints carry their own
+acceptance radius (:func:`px4_accept_m`): PX4 main no longer sets a multicopter's ``NAV_ACC_RAD`` to 2 m, and its
+10 m default is wider than the legs, so every item counted as reached the moment the mission started (measured:
+"Mission finished, loitering" 48 ms after "Executing Mission"). Cross-track, corner and completion figures are
 :func:`ksbo_task.manoeuvre_metrics.mission_tracking` of the position samples against the straight legs.
 """
 
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ksbo_mav.errors import VehicleError
-from ksbo_mav.mav.mission_transfer import MissionTransfer
+from ksbo_mav.mav.mission_transfer import MissionTransfer, load_items, save_items
 from ksbo_mav.mav.validation.manoeuvre_frame import ManoeuvreFrame
 from ksbo_mav.mav.validation.manoeuvre_recorder import cfg_text, end_text, go_text, start_text, wp_text
 from ksbo_mav.mav.validation.manoeuvre_spec import ManoeuvreSpec
@@ -40,11 +41,18 @@ def fly_auto_mission(frame: ManoeuvreFrame, spec: ManoeuvreSpec, start: np.ndarr
     frame.hold_target(start, spec.settle_s)
     transfer = MissionTransfer(v.link)
     saved = transfer.download()
+    kept = v.mission_file  # the user's mission on disk while ours replaces it: a tuner killed mid-flight loses nothing
+    if kept is not None and kept.is_file():  # an earlier flight stopped before putting it back: that one is the user's
+        saved = load_items(kept)
+    elif kept is not None:
+        save_items(kept, saved)
     detail.update(start_ned=[float(x) for x in start], user_mission_items=len(saved))
 
     def put_back() -> None:
         transfer.upload(saved)  # an empty mission is cleared
         detail["user_mission_restored"] = True
+        if kept is not None:
+            kept.unlink(missing_ok=True)
 
     detail["user_mission_restored"] = False
     frame.after.append(put_back)
