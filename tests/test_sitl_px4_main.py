@@ -1,8 +1,8 @@
 """PX4 main (v1.19.0-dev, ../shared/sitl/px4-main) in the default run: what differs from v1.15.4. The firmware line
 and the parameter generation (MAN_OVERRIDE_SPD, no COM_RC_OVERRIDE), the parameters by the PARAM protocol (no
 ``@PARAM/param.pck`` in this commit), the stick override and the SIH drag in the plan; SIH's wind blowing from where
-its vector points (the vehicle leans into it); a campaign from the ground with the firmware in its report. The rest
-of the PX4 tests fly main with ``KSBO_PX4_BUILD=main pytest -m sitl``.
+its vector points (the vehicle leans into it); a campaign from the ground with the firmware in its report
+(slow). The rest of the PX4 tests fly main with ``KSBO_PX4_BUILD=main pytest -m sitl``.
 
 The test (not the tool) sets COM_RCL_EXCEPT = 4 (OFFBOARD without RC), as a user with no RC would."""
 
@@ -46,6 +46,7 @@ def _thrust_direction(att) -> np.ndarray:
     return up / np.linalg.norm(up)
 
 
+@pytest.mark.solo  # OFFBOARD at 5x: the tuner needs the two cores beside the SITL
 def test_sih_wind_blows_from_where_its_vector_points(sitl):
     """SIH_WIND_N = SIH_WIND_E = 3.54 (5 m/s): holding position, the vehicle leans into the north-east, the wind
     comes from there (SIH flies v_apparent = v + wind)."""
@@ -72,6 +73,7 @@ def test_sih_wind_blows_from_where_its_vector_points(sitl):
         sitl.set_param("SIH_WIND_E", 0.0)
 
 
+@pytest.mark.slow  # the campaign path is PX4 1.15's default-run proof; this build's differences are proven above
 def test_px4_main_campaign_from_the_ground(sitl, tmp_path):
     d, summary, log = short_campaign(sitl, tmp_path / "camp")
     assert "arming and taking off to 10 m" in log and "landed and disarmed" in log
