@@ -42,6 +42,8 @@ def test_a_vehicle_in_a_rising_wind_stops_the_campaign_with_the_numbers(tmp_path
     assert json.loads((d / "drift.json").read_text())["on_drift"] == "stop"
     page = (d / "report" / "index.html").read_text()
     assert "Vehicle changed" in page and "the gains did not cause this" in page
+    assert f"ksbo-mav report {d}" in page  # a stop writes the page at once; the plots are drawn on request
+    assert main(["report", str(d)]) == 0
     assert (d / "report" / "conditions.png").is_file()
 
 
