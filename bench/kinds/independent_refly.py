@@ -36,7 +36,8 @@ def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3) -
     try:
         v.setup_streams()
         base = snap.baseline()
-        obj = MavlinkObjective(v, base, Path(d) / "refly", first_index=0)
+        safety = _as_flown(v, d)
+        obj = MavlinkObjective(v, base, Path(d) / "refly", first_index=0, safety=safety)
         xs = {"baseline": v.gain_map.from_params(base),
               **{k: v.gain_map.from_params({**base, **g}) for k, g in gains.items()}}
         out: dict[str, list[float | None]] = {k: [] for k in xs}
@@ -47,6 +48,20 @@ def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3) -
         return out
     finally:
         v.close()
+
+
+def _as_flown(v, d: Path) -> dict[str, float]:
+    """The campaign's own settings on ``v``: the figure-8 it flew (a wind plan may have scaled it) and its safety
+    limits (a wind plan may have raised the tilt limit); returns the limits. Re-flown otherwise, a set the campaign
+    flew inside its limits could be aborted by the profile's."""
+    import json
+    from dataclasses import replace
+
+    settings = json.loads((Path(d) / "campaign.json").read_text())
+    flown = settings.get("mission") or {}
+    if flown.get("kind") == v.mission.kind and "scale" in flown:
+        v.mission = replace(v.mission, scale=float(flown["scale"]), scale2=float(flown["scale2"]))
+    return dict(settings["config"].get("safety") or {})
 
 
 def changed_params(ep, stack: str, d: Path) -> list[str]:

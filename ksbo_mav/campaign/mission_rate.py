@@ -18,7 +18,7 @@ from ksbo_mav.errors import PreflightError, VehicleError
 from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, needed_streams,
                                     probe_uplink, verdict)
 from ksbo_mav.mav.quieting import describe_asked, pace_for, quiet_plan
-from ksbo_mav.mav.stream_watch import StreamWatch
+from ksbo_mav.mav.stream_watch import GRACE_S, StreamWatch, returned_line
 from ksbo_mav.mav.vehicle import Vehicle
 
 
@@ -42,6 +42,9 @@ POSITION_WAIT_S = 90.0
 #: second round catches streams the first made room for, the third slows the picture and the rest to once every
 #: five seconds. A round never raises a rate an earlier one asked.
 QUIET_ROUNDS = ((1.1, 1.0, 1.0), (1.1, 1.0, 1.0), (0.3, 0.2, 0.2))
+#: Rounds repeated, per rate, because streams already measured quiet came back: a ground station on the link asked
+#: for them again (MAVProxy does every 15 s), which says nothing about what the link carries once they are down.
+REFILL_ROUNDS = 3
 
 
 def _judge(v: Vehicle, seconds: float) -> tuple[LinkFigures, str | None]:
@@ -56,6 +59,7 @@ def _judge(v: Vehicle, seconds: float) -> tuple[LinkFigures, str | None]:
     if why:  # once more: a burst (the vehicle's parameter download, a ground station joining) may have passed
         fig = measure(v.link, 2 * seconds)
         why = verdict(fig, float(v.mission.rate_hz))
+    v.streams.note_quiet(fig)
     if why is None and fig.radio is not None and not v.lockstep:
         why = _uplink_verdict(v, seconds)
     return fig, why
@@ -178,15 +182,19 @@ def _make_room(v: Vehicle, fig: LinkFigures, why: str | None, seconds: float,
     carries. Returns the last figures."""
     needed = needed_streams(v.mission.kind)
     v.streams.log = log
-    for above_hz, to_hz, scale in QUIET_ROUNDS:
+    rounds, refills = list(QUIET_ROUNDS), 0
+    while rounds:
+        above_hz, to_hz, scale = rounds.pop(0)
         if not (why or fig.loss > MAX_LOSS_REDUCED):
             break
         asked = dict(v.streams.asked)
         plan = {n: min(hz, asked.get(n, hz)) for n, hz in
                 quiet_plan(v.stack.name, needed, fig, above_hz, to_hz, scale).items()}
         changed = {n: hz for n, hz in plan.items() if asked.get(n) != hz}
-        # Asked before, yet arriving: a command lost on the way up (a full radio drops them too), or not obeyed.
+        # Asked before, yet arriving: a command lost on the way up (a full radio drops them too), or not obeyed; or,
+        # when they had been quiet, asked for again by a ground station on the link.
         back = [n for n, hz in plan.items() if n not in changed and fig.rates_hz.get(n, 0.0) > 1.5 * hz + 0.1]
+        returned = [n for n in back if n in v.streams.quiet_seen]
         if not changed and not back:
             continue
         first = {n: plan[n] for n in back} | changed
@@ -194,9 +202,18 @@ def _make_room(v: Vehicle, fig: LinkFigures, why: str | None, seconds: float,
         v.streams.flush()
         if changed:
             log(describe_asked(v.stack.name, fig, changed))
-        if back:
+        if returned:
+            if not v.streams.gcs_said:
+                log(returned_line(returned))
+                v.streams.gcs_said = True
+            if refills < REFILL_ROUNDS:  # this round again: the streams came back, not the link filled up
+                refills += 1
+                rounds.insert(0, (above_hz, to_hz, scale))
+        elif back:
             log(f"link: {', '.join(back[:8])}{' ...' if len(back) > 8 else ''} still arrive though asked down "
                 f"(a command lost on the way up?): asked the vehicle again for all {len(plan)}")
+        # frames the vehicle queued in the radio's buffer before it obeyed still arrive, and their gaps with them
+        v.link.wait(lambda m: False, GRACE_S)
         fig, why = _judge(v, 2 * seconds)
         log(f"link: {fig.describe()}")
         log(_confirmed(fig))

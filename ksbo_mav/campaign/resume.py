@@ -36,10 +36,21 @@ def check_unchanged(d: CampaignDir, profile_ref: str | None, log: Callable[[str]
     if old is None:
         log("campaign.json does not record its mission (made by an older ksbo-mav): flying the profile's current "
             f"one ({mission['kind']}, lead-in {mission['lead_in']:g} s)")
-    elif (old := {**ADDED, **old, "rate_hz": mission["rate_hz"]}) != mission:  # the link check may lower the rate
+    elif (old := {**ADDED, **old, "rate_hz": mission["rate_hz"],  # the link check may lower the rate
+                  **_wind_scaled(saved, old, mission)}) != mission:
         diff = [f"{k} {old.get(k)!r} -> {mission[k]!r}" for k in mission if old.get(k) != mission[k]]
         changed.append("mission " + ", ".join(diff))
     if changed:
         raise InputError(f"profile {profile.name} changed since this campaign started: {'; '.join(changed)}. Its "
                          "trials would not be comparable: finish it with the ksbo-mav and profile it was started "
                          "with, or start a new campaign")
+
+
+def _wind_scaled(saved: dict, old: dict, mission: dict) -> dict:
+    """The profile's figure-8 size, when the stored one is that size scaled down uniformly by the wind plan of a
+    ``tune --wind`` campaign (:mod:`ksbo_mav.campaign.wind_preflight`, decided again on the resume), else ``{}``."""
+    if (saved.get("config") or {}).get("wind_mps") is None or not mission.get("scale"):
+        return {}
+    k = float(old.get("scale", 0.0)) / float(mission["scale"])
+    same = mission.get("scale2") and abs(float(old.get("scale2", 0.0)) / float(mission["scale2"]) - k) < 1e-9
+    return {"scale": mission["scale"], "scale2": mission["scale2"]} if same and 0 < k <= 1 else {}

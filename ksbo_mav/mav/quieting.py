@@ -89,6 +89,10 @@ class StreamQuieter:
         self.log: Callable[[str], None] = lambda s: None
         #: message ids the vehicle said it cannot send (not asked again: each refusal costs a STATUSTEXT down)
         self.refused: set[int] = set()
+        #: messages asked down and then measured quiet: one arriving fast again was asked for by someone else
+        self.quiet_seen: set[str] = set()
+        #: whether the console was told that a ground station asks for its streams again
+        self.gcs_said = False
         cmd.link.idle.append(self._drain)
         cmd.link.handlers.append(self._on_msg)
 
@@ -97,6 +101,10 @@ class StreamQuieter:
             m = REFUSAL.search(str(msg.text))
             if m:
                 self.refused.add(int(m.group(1)))
+
+    def note_quiet(self, fig: LinkFigures) -> None:
+        """Remember which messages asked down the measurement ``fig`` found at (or below) their asked rate."""
+        self.quiet_seen.update(n for n, hz in self.asked.items() if fig.rates_hz.get(n, 0.0) <= 1.5 * hz + 0.1)
 
     @property
     def busy(self) -> bool:

@@ -40,7 +40,17 @@ GCS_ADVICE = ("MAVProxy: `set streamrate -1` and `set streamrate2 -1` (or start 
               "Mission Planner: lower Config > Planner > Telemetry Rates (it asks again whenever the rates it "
               "receives differ from them); QGroundControl: let the vehicle control the stream rates (Application "
               "Settings > MAVLink); or connect the ground station through a router that does not pass "
-              "REQUEST_DATA_STREAM (message 66) to the vehicle")
+              "REQUEST_DATA_STREAM (message 66) to the vehicle; or, on ArduPilot, turn on the radio port's "
+              "'Ignore Streamrate' option (MAVn_OPTIONS bit 2 from 4.7, SERIALn_OPTIONS bit 12 before; a reboot), "
+              "which makes the vehicle ignore such requests")
+
+
+def returned_line(names: list[str], others: str = "") -> str:
+    """The console line for messages asked down that arrive again: who asked, and what to change there."""
+    return (f"link: {', '.join(names[:6])}{' ...' if len(names) > 6 else ''} arrive again though asked "
+            f"down{others}: a ground station on this link asked the vehicle for its streams again "
+            "(REQUEST_DATA_STREAM), which fills the link; asked them down again. So that it stops asking: "
+            f"{GCS_ADVICE}")
 
 
 class StreamWatch:
@@ -57,6 +67,7 @@ class StreamWatch:
         self.others: set[tuple[int, int]] = set()  # other ground stations heard on the link
         self._window_start = time.monotonic()
         self._counts: Counter[str] = Counter()
+        self._early: Counter[str] = Counter()  # frames of stopped streams since the last re-quieting
         self._gaps = self._frames = 0
         self._last_seq: int | None = None
         self._last_requiet = self._last_loss_requiet = -1e9
@@ -86,8 +97,16 @@ class StreamWatch:
             self._gaps += (seq - self._last_seq - 1) % 256
         self._last_seq = seq
         self._frames += 1
-        self._counts[msg.get_type()] += 1
+        kind = msg.get_type()
+        self._counts[kind] += 1
         now = time.monotonic()
+        q = self.quieter
+        if q.asked.get(kind) == 0 and not q.busy and now - q.last_sent >= GRACE_S:
+            # a stopped stream is back: asked down at once, not at the window's end, for each of the mission's
+            # samples lost meanwhile (the request also slowed the mission's own streams to their group's rate)
+            self._early[kind] += 1
+            if sum(self._early.values()) >= RETURNED_MIN and now - self._last_requiet >= REQUIET_GAP_S:
+                self._returned(now, sorted(self._early))
         if now - self._window_start >= WINDOW_S:
             self._close_window(now)
 
@@ -95,6 +114,7 @@ class StreamWatch:
         span = now - self._window_start
         counts, gaps, frames = self._counts, self._gaps, self._frames
         self._window_start, self._counts, self._gaps, self._frames = now, Counter(), 0, 0
+        self._early.clear()
         q = self.quieter
         if q.busy or now - q.last_sent < GRACE_S:
             return  # still asking, or the frames queued before the vehicle obeyed are still arriving
@@ -103,15 +123,7 @@ class StreamWatch:
         returned = back + faster if faster or sum(counts[n] for n in back) >= RETURNED_MIN else []
         loss = gaps / max(gaps + frames, 1)
         if returned and now - self._last_requiet >= REQUIET_GAP_S:
-            self.asked_again += 1
-            self._requiet(now, returned)
-            if self._say("returned", f"link: {', '.join(returned[:6])}{' ...' if len(returned) > 6 else ''} "
-                         f"arrive again though asked down{self._others()}: a ground station on this link asked the "
-                         "vehicle for its streams again (REQUEST_DATA_STREAM), which fills the link; asked them down "
-                         f"again. So that it stops asking: {GCS_ADVICE}"):
-                return
-            self._say("returned-again", f"link: the streams were asked for again ({self.asked_again} times so "
-                      "far); asked them down again each time")
+            self._returned(now, returned)
         elif (frames >= 20 and loss > max(LOSS_MIN, 2 * self.loss_at_check)
               and now - self._last_loss_requiet >= LOSS_GAP_S):
             # The link is fuller than at the check. Streams already asked down are not the cause (the window would
@@ -129,6 +141,14 @@ class StreamWatch:
                 self._say("loss", f"link: {loss:.0%} of the vehicle's frames lost by sequence number over the last "
                           f"{span:.0f} s ({self.loss_at_check:.0%} at the link check){self._others()}: asked the "
                           f"vehicle to stop or slow {len(plan)} more messages")
+
+    def _returned(self, now: float, returned: list[str]) -> None:
+        self.asked_again += 1
+        self._early.clear()
+        self._requiet(now, returned)
+        if not self._say("returned", returned_line(returned, self._others())):
+            self._say("returned-again", f"link: the streams were asked for again ({self.asked_again} times so "
+                      "far); asked them down again each time")
 
     def _requiet(self, now: float, returned: list[str]) -> None:
         """Ask the returned messages down again, with the rest of their stream groups (a ground station's
