@@ -46,6 +46,7 @@ def test_a_pack_that_would_not_fit_the_next_trial_lands_and_stops_to_be_resumed(
     assert (d / "report" / "index.html").is_file()
 
 
+@pytest.mark.slow  # default run: the battery stop and resume: the pack test beside it
 def test_a_battery_failsafe_in_a_trial_is_an_interrupted_trial_and_resume_completes(tmp_path, capsys) -> None:
     d = tmp_path / "camp"
     with sim_and_endpoint("--battery", "100,3,12") as (sim, ep):  # the failsafe fires during the second trial

@@ -121,6 +121,7 @@ def test_dry_run_prints_the_flight_plan_and_writes_nothing(tmp_path):
     assert not d.exists()
 
 
+@pytest.mark.slow  # default run: the ids' options: the other tests of this module
 @pytest.mark.network
 def test_sysid_and_compid_reach_the_wire(tmp_path):
     """--sysid/--compid are the ids the tool speaks with (they were parsed and dropped before)."""

@@ -53,6 +53,7 @@ def test_the_lead_in_removes_the_start_transient_that_tripped_the_tilt_limit(px4
     assert isinstance(px4.figure, Figure8H)
 
 
+@pytest.mark.slow  # default run: the monitor's aborts: test_mav_trial
 def test_flight_outside_the_safety_limits_is_aborted_with_the_reason() -> None:
     obj = CopterObjective("copter3d-px4")
     obj.limits = replace(obj.limits, tilt_max_deg=5.0)  # a limit the figure-8 itself needs more than

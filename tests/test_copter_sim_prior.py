@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from ksbo_mav.campaign import CampaignConfig, CampaignDir
 from ksbo_mav.campaign.prior import campaign_prior
@@ -14,6 +15,7 @@ from ksbo_mav.profiles import load_profile
 from ksbo_mav.simulated.copter_objective import CopterObjective
 
 
+@pytest.mark.slow  # default run: the simulated prior: test_trial_step
 def test_copter_prior_is_simulated_on_the_jsbsim_copter_and_kept(tmp_path) -> None:
     profile = load_profile("ardupilot-copter")
     x0 = np.asarray(profile.default, dtype=float)

@@ -24,6 +24,7 @@ def _entries(d):
     return [json.loads(x) for x in (d / "journal.jsonl").read_text().splitlines() if x.strip()]
 
 
+@pytest.mark.slow  # default run: a stop's page and command: test_stops; drift: the drift benchmark
 def test_a_vehicle_in_a_rising_wind_stops_the_campaign_with_the_numbers(tmp_path, capsys) -> None:
     d = tmp_path / "camp"
     with sim_and_endpoint(*STOP_WIND) as (sim, ep):

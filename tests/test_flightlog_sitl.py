@@ -124,6 +124,7 @@ def test_ardupilot_bin_and_client_tlog_agree(ardupilot_sitl, tmp_path, capsys):
     assert "lap 2 vs reference h rms" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # default run: the ULog reader: test_flightlog_synthetic, _field, _damage
 def test_px4_ulg_and_client_tlog_agree(px4_sitl, tmp_path, capsys):
     res, tlog = _fly(px4_sitl, "px4", tmp_path)
     ulg = _complete_log(px4_sitl, ".ulg")

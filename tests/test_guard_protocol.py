@@ -39,6 +39,7 @@ def device(sim) -> str:
     return f"udpout:{sim.host}:{sim.port}"
 
 
+@pytest.mark.slow  # default run: the same link cut in both parameter generations, in this module
 def test_link_cut_restores_baseline_and_holds(sim):
     proc, values = start_tuner(device(sim), PROFILE, {"trial": TRIAL})
     obs = Observer(device(sim))
@@ -158,6 +159,7 @@ def test_a_campaign_without_scripting_flies_nothing_unless_told_to_fly_without_t
         assert "WITHOUT the onboard guard" in (tmp_path / "without" / "report" / "index.html").read_text()
 
 
+@pytest.mark.slow  # default run: the guard installed and removed on SITL: test_sitl_guard, test_sitl_ardupilot
 def test_a_campaign_installs_the_guard_and_leaves_no_trace_of_it(tmp_path):
     with sim_and_endpoint() as (sim, endpoint):
         r = _tune(endpoint, tmp_path / "c")  # the guard is the default

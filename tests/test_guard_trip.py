@@ -55,6 +55,7 @@ def _connect(sim: SimProcess) -> tuple[Vehicle, dict[str, float]]:
     return v, {n: v.params.read(n) for n in v.gain_map.param_names}
 
 
+@pytest.mark.slow  # default run: the same on ArduCopter SITL: test_sitl_guard_trip
 def test_a_box_the_guard_finds_is_the_gains_abort_and_the_trials_go_on(tmp_path):
     with SimProcess("--lockstep", "--vehicle", "copter3d", "--personality", "ardupilot-legacy") as sim:
         v, base = _connect(sim)

@@ -135,6 +135,7 @@ def test_through_a_radio_and_mavproxy_a_ground_station_asking_again_is_noticed_e
     assert min(picture.values()) >= 0.5, (picture, gcs.got)  # the ground station's picture, a second apart at most
 
 
+@pytest.mark.slow  # default run: a ground station asking again: the test above
 def test_a_ground_station_filling_a_link_the_check_found_clear_is_answered_by_the_loss_it_causes():
     """The check found room (nothing asked down), then a ground station asks every group at 50 Hz: nothing the
     tuner asked down comes back, but the radio fills and the vehicle's frames are lost by sequence number; the watch

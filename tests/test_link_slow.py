@@ -24,6 +24,7 @@ CMD_INTERVAL = 511  # SET_MESSAGE_INTERVAL: our simulator acknowledges it
 HEARTBEAT_ID = 0
 
 
+@pytest.mark.slow  # default run: the link check's figures: test_link_params
 @pytest.mark.network
 @pytest.mark.timeout(180)
 def test_command_waits_follow_the_measured_round_trip() -> None:
@@ -68,6 +69,7 @@ def _stream_through(shape: str, seconds: float = 5.0) -> tuple[dict, int, list[i
     return stats, thinned, seen
 
 
+@pytest.mark.slow  # default run: a thin link's rate stepped down: test_link_params
 @pytest.mark.network
 @pytest.mark.timeout(180)
 def test_setpoints_thin_out_when_the_ground_radio_reports_its_buffer_filling() -> None:
@@ -97,6 +99,7 @@ def test_an_uplink_too_thin_for_50_hz_setpoints_is_found_by_the_radios_buffer_an
     assert any(s.startswith(f"link: flying at {rate} Hz instead of 50 Hz") for s in said), said
 
 
+@pytest.mark.slow  # default run: the lost-link rule: test_mav_trial
 @pytest.mark.network
 @pytest.mark.timeout(120)
 def test_heartbeats_lost_while_telemetry_arrives_are_not_a_lost_link() -> None:
@@ -125,6 +128,7 @@ def test_heartbeats_lost_while_telemetry_arrives_are_not_a_lost_link() -> None:
             v.close()
 
 
+@pytest.mark.slow  # default run: the quieting: test_stream_quieting, test_link_shared
 @pytest.mark.network
 @pytest.mark.timeout(180)
 def test_the_vehicles_own_streams_are_quieted_before_the_mission_rate_is_lowered_and_put_back_at_the_end() -> None:

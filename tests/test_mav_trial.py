@@ -192,6 +192,7 @@ def test_fault_packet_loss_20_percent(rig):
     assert_baseline(sim)
 
 
+@pytest.mark.slow  # default run: writes through a lossy link: test_link_params
 def test_restore_gets_through_20_percent_packet_loss(rig):
     """Writes and read-back verification of the baseline survive 20 % loss in both directions from the start."""
     sim, v, base, tmp = rig

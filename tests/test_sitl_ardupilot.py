@@ -117,6 +117,7 @@ def test_kill_9_mid_trial_then_restore_and_resume(ardupilot_sitl, tmp_path):
     assert not armed and not param_diff(d, now)
 
 
+@pytest.mark.slow  # default run: the link cut on SITL: test_sitl_guard; the interrupted trial resumed: test_mav_trial
 def test_link_cut_mid_trial_then_back_is_interrupted_and_the_campaign_goes_on(ardupilot_sitl, tmp_path):
     """The tuner's link through the link emulator, cut (every frame both ways) 1.5 s of wall time into the first
     optimiser trial for 8 s: on board, read on a second connection the tuner does not use, the guard puts the

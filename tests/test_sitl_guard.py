@@ -93,6 +93,7 @@ def test_box_left_restores_baseline_and_brakes(scripting_sitl):
         obs.close()
 
 
+@pytest.mark.slow  # default run: a pilot's take-over: test_pilot_takeover, test_guard_trip
 def test_pilot_mode_change_restores_baseline_and_keeps_the_pilots_mode(scripting_sitl):
     obs = Observer(f"tcp:127.0.0.1:{scripting_sitl.tcp_ports[1]}")
     proc, values = start_tuner(f"tcp:127.0.0.1:{scripting_sitl.tcp_port}", PROFILE, {"trial": TRIAL})

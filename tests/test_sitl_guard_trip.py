@@ -101,6 +101,7 @@ def test_a_box_the_guard_finds_on_board_is_the_gains_abort(sitl, tmp_path):
         v.close()
 
 
+@pytest.mark.slow  # default run: a guarded validation flight: test_guard_trip; a link cut on SITL: test_sitl_guard
 def test_a_validation_hold_flies_guarded_and_a_link_cut_mid_hold_trips_the_guard(sitl, tmp_path):
     from ksbo_sim.linkproc import LinkEmulator
     from ksbo_sim.process import free_udp_port

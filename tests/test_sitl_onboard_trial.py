@@ -20,6 +20,7 @@ from ksbo_mav.mav.vehicle import Vehicle
 pytestmark = [pytest.mark.sitl, pytest.mark.network, pytest.mark.timeout(600)]
 
 
+@pytest.mark.slow  # default run: the ArduPilot SITL campaign of test_sitl_ardupilot flies its trials on board
 def test_onboard_figure8_on_arducopter_sitl(tmp_path):
     sitl = sitl_or_skip("ardupilot", 5)  # booted with SCR_ENABLE 1
     try:

@@ -46,6 +46,7 @@ def _thrust_direction(att) -> np.ndarray:
     return up / np.linalg.norm(up)
 
 
+@pytest.mark.slow  # default run: the wind-campaigns benchmark checks the sign before writing a number
 @pytest.mark.solo  # OFFBOARD at 5x: the tuner needs the two cores beside the SITL
 def test_sih_wind_blows_from_where_its_vector_points(sitl):
     """SIH_WIND_N = SIH_WIND_E = 3.54 (5 m/s): holding position, the vehicle leans into the north-east, the wind

@@ -39,6 +39,7 @@ def _tune_cmd(d: Path, port: int, *extra: str) -> list[str]:
     return [sys.executable, "-m", "ksbo_mav.cli", "tune", str(d), "--udp", f"127.0.0.1:{port}", *extra]
 
 
+@pytest.mark.slow  # default run: test_cli_demo; accept and restore on SITL: test_sitl_ardupilot
 @pytest.mark.timeout(180)
 def test_short_campaign_improves_then_restores_accept_and_restore_commands(tmp_path, capsys):
     d = tmp_path / "camp"
@@ -195,6 +196,7 @@ def test_local_prior_is_flown_around_the_baseline_and_journalled(tmp_path):
         assert fresh_read(sim) == pytest.approx(baseline(), rel=1e-6, abs=1e-7)
 
 
+@pytest.mark.slow  # default run: test_pilot_takeover
 @pytest.mark.timeout(180)
 def test_pilot_mode_change_is_journalled_as_failed_not_as_a_gain_point(tmp_path):
     """A trial the pilot interrupts says nothing about its gains: journalled as "failed", never given to

@@ -36,6 +36,7 @@ def _profile(tmp_path: Path) -> str:
     return str(path)
 
 
+@pytest.mark.slow  # default run: the default campaign's early stop: test_sitl_ardupilot (one pack), test_cli_demo
 def test_the_search_stops_says_why_and_confirms(tmp_path, capsys):
     d = tmp_path / "c"
     with sim_and_endpoint("--vehicle", "copter3d", "--personality", "ardupilot") as (_sim, ep):

@@ -46,6 +46,7 @@ def copter(request):
             v.close()
 
 
+@pytest.mark.slow  # default run: the three manoeuvres on both SITLs: test_sitl_validation
 def test_three_manoeuvres_measured_live_and_from_the_tlog(copter, tmp_path, capsys):
     personality, sim, v = copter
     transfer = MissionTransfer(v.link)
