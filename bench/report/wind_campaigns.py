@@ -7,8 +7,13 @@ from __future__ import annotations
 import statistics
 from typing import Any
 
+from ksbo_mav.mav.wind_source import simulated_wind
+
 VEHICLE = {"ardupilot": "ArduCopter SITL", "px4": "PX4 SITL"}
 
+
+#: The figure-8's height above home (m) in the copter profiles: where the simulator's wind is read.
+FLIGHT_HEIGHT_M = 10.0
 
 def cell(r: dict[str, Any]) -> str:
     k = r["key"]
@@ -58,7 +63,9 @@ def wind_row(r: dict[str, Any]) -> str | None:
     got = (f"{w['inferred_mps']:.1f} m/s from {w['inferred_from_deg']:g} deg" if "inferred_from_deg" in w
            else "not inferred")
     sign = {True: "yes", False: "**no**"}.get(w.get("sign_ok"), "–")
-    return (f"| {cell(r)} | {want.get('mps', 0):g} m/s from {want.get('from_deg', 0):g} deg | {got} "
+    blows = simulated_wind((r.get("key") or {}).get("sitl_params") or {}, FLIGHT_HEIGHT_M)
+    at = f"{blows[0]:.1f} m/s" if blows else "–"
+    return (f"| {cell(r)} | {want.get('mps', 0):g} m/s from {want.get('from_deg', 0):g} deg | {at} | {got} "
             f"({w['flights']} flights) | {sign} |")
 
 
@@ -125,8 +132,12 @@ def report(records: list[dict[str, Any]]) -> str:
     ]
     if wind:
         parts += ["## The wind's sign", "The wind each flight inferred from its own lean and drift (median over the "
-                  "campaign's flights) against the wind the cell set, as the direction it comes from.",
-                  "| cell | set | inferred | same direction (±45 deg) |\n|---|---|---|---|\n" + "\n".join(wind)]
+                  "campaign's flights) against the wind the cell set, as the direction it comes from; and what the "
+                  f"simulator blows at the figure-8's height ({FLIGHT_HEIGHT_M:g} m, the copter profiles'), from its "
+                  "own wind model (ksbo_mav.mav.wind_source.simulated_wind: ArduCopter SITL's SIM_WIND_SPD is shaped "
+                  "by a square-root profile up to 60 m, 41 % of it at 10 m; SIH's wind is the same at every height).",
+                  "| cell | set | blows at the flight height | inferred | same direction (±45 deg) |\n"
+                  "|---|---|---|---|---|\n" + "\n".join(wind)]
     if val:
         parts += ["## Validation flights", "Baseline and candidate alternated; the verdict is decided by one figure "
                   "per manoeuvre (ksbo_mav.campaign.verdict). Aborted: baseline / candidate flights the monitor "
