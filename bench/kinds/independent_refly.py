@@ -54,10 +54,11 @@ def _as_flown(v, d: Path) -> dict[str, float]:
     """The campaign's own settings on ``v``: the figure-8 it flew (a wind plan may have scaled it) and its safety
     limits (a wind plan may have raised the tilt limit); returns the limits. Re-flown otherwise, a set the campaign
     flew inside its limits could be aborted by the profile's."""
-    import json
     from dataclasses import replace
 
-    settings = json.loads((Path(d) / "campaign.json").read_text())
+    from ksbo_mav.campaign.layout import CampaignDir
+
+    settings = CampaignDir.at(d).read_settings()
     flown = settings.get("mission") or {}
     if flown.get("kind") == v.mission.kind and "scale" in flown:
         v.mission = replace(v.mission, scale=float(flown["scale"]), scale2=float(flown["scale2"]))

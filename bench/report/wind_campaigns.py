@@ -10,10 +10,9 @@ from typing import Any
 from ksbo_mav.mav.wind_source import simulated_wind
 
 VEHICLE = {"ardupilot": "ArduCopter SITL", "px4": "PX4 SITL"}
-
-
 #: The figure-8's height above home (m) in the copter profiles: where the simulator's wind is read.
 FLIGHT_HEIGHT_M = 10.0
+
 
 def cell(r: dict[str, Any]) -> str:
     k = r["key"]

@@ -17,7 +17,7 @@ from ksbo_mav.campaign.settings import MISSION_RATES_HZ
 from ksbo_mav.errors import PreflightError, VehicleError
 from ksbo_mav.mav.linkcheck import (UPLINK_MIN_FREE, LinkFigures, judged, judged_stream, measure, needed_streams,
                                     probe_uplink, verdict)
-from ksbo_mav.mav.quieting import describe_asked, pace_for, quiet_plan
+from ksbo_mav.mav.quieting import arrives_above, describe_asked, pace_for, quiet_plan
 from ksbo_mav.mav.stream_watch import GRACE_S, StreamWatch, returned_line
 from ksbo_mav.mav.vehicle import Vehicle
 
@@ -193,7 +193,7 @@ def _make_room(v: Vehicle, fig: LinkFigures, why: str | None, seconds: float,
         changed = {n: hz for n, hz in plan.items() if asked.get(n) != hz}
         # Asked before, yet arriving: a command lost on the way up (a full radio drops them too), or not obeyed; or,
         # when they had been quiet, asked for again by a ground station on the link.
-        back = [n for n, hz in plan.items() if n not in changed and fig.rates_hz.get(n, 0.0) > 1.5 * hz + 0.1]
+        back = [n for n, hz in plan.items() if n not in changed and arrives_above(fig, n, hz)]
         returned = [n for n in back if n in v.streams.quiet_seen]
         if not changed and not back:
             continue

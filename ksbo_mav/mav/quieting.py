@@ -66,6 +66,11 @@ def quiet_plan(stack_name: str, needed: frozenset[str], fig: LinkFigures | None 
     return plan
 
 
+def arrives_above(fig: LinkFigures, name: str, hz: float) -> bool:
+    """Whether ``name`` arrived in ``fig`` clearly faster than the ``hz`` it was asked down to (0: stopped)."""
+    return fig.rates_hz.get(name, 0.0) > 1.5 * hz + 0.1
+
+
 def pace_for(fig: LinkFigures | None) -> float:
     """Commands per second for a link whose downlink carried ``fig.bytes_per_s`` (half of it, bounded)."""
     if fig is None or fig.bytes_per_s <= 0:
@@ -104,7 +109,7 @@ class StreamQuieter:
 
     def note_quiet(self, fig: LinkFigures) -> None:
         """Remember which messages asked down the measurement ``fig`` found at (or below) their asked rate."""
-        self.quiet_seen.update(n for n, hz in self.asked.items() if fig.rates_hz.get(n, 0.0) <= 1.5 * hz + 0.1)
+        self.quiet_seen.update(n for n, hz in self.asked.items() if not arrives_above(fig, n, hz))
 
     @property
     def busy(self) -> bool:
