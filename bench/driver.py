@@ -4,6 +4,7 @@ its wall time, the node, the estimated time left)."""
 
 from __future__ import annotations
 
+import json
 import sys
 import time
 from dataclasses import dataclass, field
@@ -12,7 +13,7 @@ from typing import Any, TextIO
 from ksbo_bench.cell_errors import InfraError, NotYet
 from ksbo_bench.kinds import KINDS
 from ksbo_bench.store import Store
-from ksbo_bench.sweep import Cell, Sweep, varying
+from ksbo_bench.sweep import Cell, Sweep, SweepError, varying
 
 
 @dataclass
@@ -41,11 +42,23 @@ def pending(sweep: Sweep, store: Store, seeds: list[int] | None = None,
             where: dict[str, Any] | None = None) -> tuple[list[Cell], int]:
     """(cells still to run, cells already stored) of ``sweep`` (only those matching ``where``, if given)."""
     cells = sweep.cells(seeds)
-    if where:
-        cells = [c for c in cells if all(str(c.key.get(k)) == str(v) for k, v in where.items())]
+    for name, value in (where or {}).items():
+        values = sorted({_spelled(c.key[name]) for c in cells if name in c.key})
+        if not values:
+            names = sorted({k for c in cells for k in c.key})
+            raise SweepError(f"--only {name}={value}: the sweep's cells have no {name!r} "
+                             f"(they have {', '.join(names)})")
+        if value not in values and value not in {str(c.key[name]) for c in cells}:
+            raise SweepError(f"--only {name}={value}: no cell has it; {name} takes {', '.join(values)}")
+        cells = [c for c in cells if value in (_spelled(c.key[name]), str(c.key[name]))]
     done = store.done()
     todo = [c for c in cells if c.id not in done]
     return todo, len(cells) - len(todo)
+
+
+def _spelled(value: Any) -> str:
+    """A key value as the sweep file writes it (TOML: ``true``, ``2.5``, ``nominal``)."""
+    return json.dumps(value) if isinstance(value, bool) else str(value)
 
 
 def resolve(cells: list[Cell]) -> tuple[list[Cell], list[tuple[Cell, NotYet]]]:

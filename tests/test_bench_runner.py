@@ -38,6 +38,23 @@ def _sweep(tmp_path: Path, text: str = TINY, name: str = "tiny") -> sweeps.Sweep
     return sweeps.load(p)
 
 
+def test_only_takes_the_sweep_files_spelling_and_refuses_what_no_cell_has(tmp_path):
+    from ksbo_bench.driver import pending
+    from ksbo_bench.sweep import SweepError
+
+    sw = _sweep(tmp_path, TINY.replace('budget = 4', 'budget = 4\n[grid]\npilot = [true, false]').replace(
+        '[grid]\nseed', 'seed'))
+    store = Store(tmp_path / "store")
+    for spelled in ("true", "True"):  # the file's TOML spelling, and Python's
+        todo, _ = pending(sw, store, where={"pilot": spelled})
+        assert [c.key["pilot"] for c in todo] == [True, True], spelled
+    assert len(pending(sw, store, where={"seed": "1", "pilot": "false"})[0]) == 1
+    with pytest.raises(SweepError, match="no cell has it; pilot takes false, true"):
+        pending(sw, store, where={"pilot": "yes"})
+    with pytest.raises(SweepError, match="have no 'pilots'"):
+        pending(sw, store, where={"pilots": "true"})
+
+
 def test_a_sweep_file_declares_its_cells_and_their_keys(tmp_path):
     sw = _sweep(tmp_path, """
 [sweep]
