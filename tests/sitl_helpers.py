@@ -96,8 +96,8 @@ def accept_then_restore(sitl, d: Path, summary: dict, profile: str, port_args: l
 
 
 def short_campaign(sitl, d: Path) -> tuple[Path, dict, str]:
-    """`ksbo-mav tune` from the ground: baseline + 2 optimiser trials + 1 confirmation; (dir, summary, stderr)."""
-    r = tool("tune", str(d), *sitl.cli_args, "--prior", "none", "--budget", "3", "--json")
+    """`ksbo-mav tune` from the ground: baseline + 1 optimiser trial + 1 confirmation; (dir, summary, stderr)."""
+    r = tool("tune", str(d), *sitl.cli_args, "--prior", "none", "--budget", "2", "--json")
     assert r.returncode == 0, r.stderr[-3000:]
     return d, json.loads(r.stdout[r.stdout.index("{"):]), r.stderr
 

@@ -39,7 +39,7 @@ def test_campaign_takes_off_flies_lands_and_leaves_no_trace(ardupilot_sitl, camp
             "PSC_VELZ_*, PSC_ACCZ_*), verified: flown on SITL here (docs/firmware.md, row ardupilot 4.7.0-dev "
             "legacy)") in " ".join(log.split())
     recs = counted_trials(d)
-    assert len(recs) == 4 and all(r["outcome"] == "ok" for r in recs)
+    assert len(recs) == 3 and all(r["outcome"] == "ok" for r in recs)
     assert summary["baseline"]["trial"] == recs[0]["trial"] and summary["baseline"]["P"] == pytest.approx(0.5)
     for r in recs:  # every step's setpoint sent (none: flown on board by the guard), 50 Hz telemetry
         sent = 0 if r["trajectory"]["on_board"] else 2001
