@@ -43,14 +43,15 @@ def pending(sweep: Sweep, store: Store, seeds: list[int] | None = None,
     """(cells still to run, cells already stored) of ``sweep`` (only those matching ``where``, if given)."""
     cells = sweep.cells(seeds)
     for name, value in (where or {}).items():
-        values = sorted({_spelled(c.key[name]) for c in cells if name in c.key})
-        if not values:
+        having = [c for c in cells if name in c.key]
+        if not having:
             names = sorted({k for c in cells for k in c.key})
             raise SweepError(f"--only {name}={value}: the sweep's cells have no {name!r} "
                              f"(they have {', '.join(names)})")
-        if value not in values and value not in {str(c.key[name]) for c in cells}:
+        cells = [c for c in having if value in (_spelled(c.key[name]), str(c.key[name]))]
+        if not cells:
+            values = sorted({_spelled(c.key[name]) for c in having})
             raise SweepError(f"--only {name}={value}: no cell has it; {name} takes {', '.join(values)}")
-        cells = [c for c in cells if value in (_spelled(c.key[name]), str(c.key[name]))]
     done = store.done()
     todo = [c for c in cells if c.id not in done]
     return todo, len(cells) - len(todo)
