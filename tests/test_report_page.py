@@ -172,6 +172,33 @@ def test_report_command_regenerates_the_page_and_refuses_a_non_campaign(campaign
     assert err.count("\n") == 1 and "no campaign" in err
 
 
+def test_plots_drawn_from_the_same_flights_are_kept_and_the_report_command_draws_them_anew(campaign, tmp_path):
+    from ksbo_mav.campaign.report.writer import write_report
+
+    d, _ = campaign
+    copy = tmp_path / "copy"
+    shutil.copytree(d, copy)
+    plot = copy / "report" / "gains.png"
+
+    def drawn_at() -> int:
+        return plot.stat().st_mtime_ns
+
+    first = write_report(copy)
+    at = drawn_at()
+    assert write_report(copy) == first and drawn_at() == at  # nothing new flown: the plots kept
+    result = json.loads((copy / "result.json").read_text())
+    result["best"]["x"] = [x * 1.001 for x in result["best"]["x"]]  # another recommendation: drawn again
+    write_report(copy, result=result)
+    assert drawn_at() > at
+    at = drawn_at()
+    with open(copy / "journal.jsonl", "a") as f:  # a flight more (a line the reader skips still changes the file)
+        f.write("\n")
+    write_report(copy, result=result)
+    assert drawn_at() > at
+    at = drawn_at()
+    assert main(["report", str(copy)]) == 0 and drawn_at() > at  # the command always draws
+
+
 def test_text_on_the_page_is_escaped(campaign):
     from ksbo_mav.campaign.layout import CampaignDir
     from ksbo_mav.campaign.report.page import render

@@ -24,7 +24,7 @@ def run(args: argparse.Namespace) -> int:
     d = CampaignDir.at(args.dir)
     if not d.config.exists():
         raise InputError(f"{args.dir} holds no campaign (no campaign.json)")
-    paths = write_report(d)
+    paths = write_report(d, fresh=True)
     for line in box_edge_lines(d):
         print(f"search box: {line}")
     for name, path in paths.items():

@@ -9,6 +9,7 @@ confirmation and interrupted trials alike).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 from pathlib import Path
 from typing import Any
@@ -121,10 +122,33 @@ def _trajectory_plot(rec: CampaignRecord, path: Path) -> str | None:
                                  kind=kind, scored=scored_span(info)))
 
 
-def _draw(d: CampaignDir, rec: CampaignRecord, best_x: Any, limits: Any, hits: list[EdgeHit]) -> dict[str, str]:
-    """The report's plots drawn; {name: path, or "none" where there is nothing to show}."""
+def _plot_inputs(d: CampaignDir, best_x: Any, limits: Any, hits: list[EdgeHit]) -> str:
+    """A digest of everything the plots are drawn from: the settings, the journal (which names every trial record
+    and tlog, each written once), the widening steps, the recommendation, the limits and the edge hits."""
+    digest = hashlib.sha256()
+    for path in (d.config, d.journal, d.widen_log):
+        digest.update(path.read_bytes() if path.is_file() else b"-")
+    digest.update(repr((best_x, None if limits is None else np.asarray(limits).tolist(), hits)).encode())
+    return digest.hexdigest()
+
+
+def _draw(d: CampaignDir, rec: CampaignRecord, best_x: Any, limits: Any, hits: list[EdgeHit],
+          fresh: bool = False) -> dict[str, str]:
+    """The report's plots drawn; {name: path, or "none" where there is nothing to show}. Plots drawn before from
+    the same inputs are kept (drawing them takes seconds; a campaign writes its report before and after the
+    validation flights, which change none of them) unless ``fresh``."""
     from ksbo_mav.campaign.report.conditions import plot_conditions
 
+    key, stamp = _plot_inputs(d, best_x, limits, hits), d.report / "plots.json"
+    if not fresh:
+        try:
+            kept = json.loads(stamp.read_text())
+            drawn = {k: v if v == "none" else str(d.report / v) for k, v in kept["plots"].items()}
+            if kept["inputs"] == key and all(p == "none" or Path(p).is_file() for p in drawn.values()):
+                return drawn
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            pass
+    stamp.unlink(missing_ok=True)
     paths: dict[str, str] = {
         "convergence": plot_convergence(rec, d.report_plot("convergence")),
         "gains": plot_gains(rec, None if best_x is None else rec.to_params(best_x), limits, hits,
@@ -135,6 +159,8 @@ def _draw(d: CampaignDir, rec: CampaignRecord, best_x: Any, limits: Any, hits: l
         paths["trajectory"] = traj
     paths["safety"] = plot_safety(rec, d.report_plot("safety")) or "none"
     paths["conditions"] = plot_conditions(rec, d.report_plot("conditions")) or "none"
+    stamp.write_text(json.dumps({"inputs": key, "plots": {k: v if v == "none" else Path(v).name
+                                                          for k, v in paths.items()}}))
     return paths
 
 
@@ -143,7 +169,7 @@ PLOT_NAMES = ("convergence", "gains", "trajectory", "safety", "conditions")
 
 
 def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[str, Any] | None = None,
-                 draw: bool = True) -> dict[str, str]:
+                 draw: bool = True, fresh: bool = False) -> dict[str, str]:
     """Write the report's plots and its page under ``d``/report; returns {name: path}. Without ``draw`` (a stop:
     it must be quick, and drawing takes seconds to minutes on a loaded computer) only the page is written, with the
     plots as last drawn, if any, and a line saying that ``ksbo-mav report DIR`` draws them anew.
@@ -151,7 +177,8 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     Plots: convergence.png, gains.png, trajectory.png (when the baseline and a confirmation flight completed) and
     safety.png (only when a trial was unsafe, aborted, crashed or interrupted; else {"safety": "none"}); the page
     index.html embeds them. ``result``: the campaign's summary (default: result.json); ``profile``: the vehicle
-    profile (default: the one the campaign names), for the profile's own gain limits.
+    profile (default: the one the campaign names), for the profile's own gain limits; ``fresh``: draw the plots
+    even where the ones on disk were drawn from the same inputs.
     """
     from ksbo_mav.campaign.drift import load_drift
     from ksbo_mav.campaign.report.conditions import same_condition, wind_summary
@@ -173,7 +200,7 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
     rec, limits, moves = widened_record(d, rec, profile)
     hits = box_edges(rec, best_x, profile, limits) if best_x is not None else []
     if draw:
-        paths = _draw(d, rec, best_x, limits, hits)
+        paths = _draw(d, rec, best_x, limits, hits, fresh)
     else:
         paths = {k: str(d.report_plot(k)) for k in PLOT_NAMES if d.report_plot(k).is_file()}
         result = {**(result or {}), "plots_note": f"Plots {'as last drawn, before this stop' if paths else 'not drawn'}"
