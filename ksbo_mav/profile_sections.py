@@ -141,7 +141,10 @@ class ScoreSpec:
     ``j_hi``, ``lam``, ``floor``. 3-D copters (``ksbo_mav.mav.mission.Mission.score``):
     ``P = 1 - RMS / (unsafe_rms_ratio * RMS_ref)`` with RMS_ref the campaign's baseline flight (or ``rms_ref_m``
     when set: a fixed reference), so the baseline scores ``1 - 1/unsafe_rms_ratio`` and P < 0 means tracking more
-    than ``unsafe_rms_ratio`` times worse than the baseline. New score keys are new fields here.
+    than ``unsafe_rms_ratio`` times worse than the baseline. ``smooth_weight`` (w, default 0: off) adds the
+    smoothness term, ``P = 1 - (RMS / RMS_ref + w max(0, rough - rough_ref) / max(rough_ref, 0.5)) /
+    unsafe_rms_ratio`` with rough the lap's body-rate roughness (deg/s) above ``rough_cutoff_hz`` and rough_ref the
+    baseline flight's (:mod:`ksbo_mav.smoothness`). New score keys are new fields here.
     """
 
     Q: tuple[float, ...] | None = None
@@ -152,11 +155,15 @@ class ScoreSpec:
     floor: float | None = None
     unsafe_rms_ratio: float | None = None
     rms_ref_m: float | None = None
+    smooth_weight: float | None = None
+    rough_cutoff_hz: float | None = None
 
     def __post_init__(self) -> None:
         if self.Q is not None and len(self.Q) != 6 or self.R is not None and len(self.R) != 2:
             raise InputError("Q needs 6 diagonal weights and R needs 2")
-        _positive(self, "j_hi", "rms_ref_m")
+        _positive(self, "j_hi", "rms_ref_m", "rough_cutoff_hz")
+        if self.smooth_weight is not None and not self.smooth_weight >= 0:
+            raise InputError(f"smooth_weight must be >= 0 (0: tracking alone), got {self.smooth_weight!r}")
         if self.unsafe_rms_ratio is not None and not self.unsafe_rms_ratio > 1.0:
             raise InputError(f"unsafe_rms_ratio must be > 1 (the baseline must score safe), "
                              f"got {self.unsafe_rms_ratio}")

@@ -120,7 +120,8 @@ def test_score_keys_are_the_fields_of_one_dataclass(tmp_path):
     path = _variant(tmp_path, "ardupilot-copter", "unsafe_rms_ratio = 2.0\n",
                     "unsafe_rms_ratio = 3.0\nrms_ref_m = 0.2\n")
     p = load_profile(path)
-    assert p.score_spec.rms_ref_m == 0.2 and p.section("score") == {"unsafe_rms_ratio": 3.0, "rms_ref_m": 0.2}
+    assert p.score_spec.rms_ref_m == 0.2 and p.section("score") == {"unsafe_rms_ratio": 3.0, "rms_ref_m": 0.2,
+                                                                      "smooth_weight": 0.5, "rough_cutoff_hz": 2.0}
     score = "[score]\nQ = [1, 0.1, 1, 0.1, 0.1, 0.1]\nj_hi = 5\n\n[mission]"
     path = _variant(tmp_path, "sim-planar", "[mission]", score)
     assert load_profile(path).score_spec.given() == {"Q": (1.0, 0.1, 1.0, 0.1, 0.1, 0.1), "j_hi": 5.0}

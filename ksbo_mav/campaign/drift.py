@@ -236,11 +236,16 @@ class DriftWatch:
 
     def corrected(self, journal: Journal, P: float, rms: float | None, ratio: float) -> float:
         """A trial's score against the baseline in the same condition (the newest re-flight once the test has
-        fired): ``1 - rms / (ratio rms_ref)`` with the RMS, else P shifted by the baseline's drop in P."""
+        fired): ``1 - rms / (ratio rms_ref)`` with the RMS (less the smoothness term P was given, unchanged),
+        else P shifted by the baseline's drop in P."""
         if self.ref is None:
             return P
+        first = self.flights(journal)[0].rms
         if rms is not None and self.ref.rms:
-            return 1.0 - rms / (ratio * self.reference_rms(journal, len(journal.entries)))
+            # P = 1 - (rms / first + smoothness) / ratio: the smoothness term is the part the RMS does not explain
+            smooth = 1.0 - P - rms / (ratio * first) if first else 0.0
+            smooth = smooth if smooth > 1e-9 else 0.0  # rounding, not a term
+            return 1.0 - rms / (ratio * self.reference_rms(journal, len(journal.entries))) - smooth
         return P + (self.anchor(journal).P - self.ref.P)
 
     def reference_rms(self, journal: Journal, trial: int) -> float:

@@ -35,6 +35,7 @@ class JournalEntry:
     record: str
     restored: bool
     rms: float | None = None  # 3-D missions: lap-2 RMS tracking error (m)
+    rough: float | None = None  # 3-D missions: lap-2 body-rate roughness (deg/s, ksbo_mav.smoothness)
     stress: bool = False  # flown from the hardest start (the optimiser's refly_stress re-flights)
     cond: dict[str, Any] | None = None  # wind, battery voltage, flight index (ksbo_mav.campaign.drift)
 
@@ -42,7 +43,8 @@ class JournalEntry:
     def of(cls, kind: str, f: Flight) -> "JournalEntry":
         return cls(kind=kind, trial=int(f.meta["trial"]), x=tuple(float(v) for v in f.gains), P=float(f.P),
                    outcome=TrialOutcome(f.outcome), record=str(f.meta["record"]), restored=bool(f.meta["restored"]),
-                   rms=f.score.get("rms_lap2_m"), stress=bool(f.meta.get("stress_start", False)))
+                   rms=f.score.get("rms_lap2_m"), rough=f.score.get("rough_dps"),
+                   stress=bool(f.meta.get("stress_start", False)))
 
     @classmethod
     def parse(cls, doc: Any, where: str) -> "JournalEntry":
@@ -50,6 +52,7 @@ class JournalEntry:
             e = cls(kind=str(doc["kind"]), trial=int(doc["trial"]), x=tuple(float(v) for v in doc["x"]),
                     P=float(doc["P"]), outcome=TrialOutcome(doc["outcome"]), record=str(doc["record"]),
                     restored=bool(doc["restored"]), rms=None if doc.get("rms") is None else float(doc["rms"]),
+                    rough=None if doc.get("rough") is None else float(doc["rough"]),
                     stress=bool(doc.get("stress", False)),
                     cond=dict(doc["cond"]) if isinstance(doc.get("cond"), dict) else None)
         except (KeyError, TypeError, ValueError) as exc:

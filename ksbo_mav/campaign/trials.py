@@ -171,7 +171,7 @@ class TrialLoop:
                                    f"{f.meta.get('message') or 'see the trial record'}); safe BO needs a safe start: "
                                    "fix the gains or the mission/safety settings first (baseline restored)")
         if self.objective.mission.kind != "figure8-xz":
-            self.objective.rms_ref = opt[0].rms
+            self.objective.rms_ref, self.objective.rough_ref = opt[0].rms, opt[0].rough
         # A resumed campaign: after a stop (a pack swap, a check of the vehicle) the vehicle is not known to answer
         # as it did; the baseline flies before the next trial (none when nothing is left to fly), tested like a
         # re-flight at the cadence.

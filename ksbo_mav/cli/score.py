@@ -180,7 +180,8 @@ def _run_trial(args: argparse.Namespace) -> int:
         raise InputError(f"the tlog's trial ({rec.kind}, {rec.n} steps of {rec.dt} ms, scored from {rec.w}) does not "
                          f"match profile {profile.name}'s mission; pass the campaign's --profile")
     rms_ref = args.rms_ref if args.rms_ref is not None else getattr(rec, "rms_ref", None)
-    score = mission.score(traj, rms_ref=rms_ref) if rms_ref is not None else mission.score(traj)
+    score = mission.score(traj, rms_ref=rms_ref, smooth=mission.lap_smoothness(rec.t0, rec.att),
+                          rough_ref=getattr(rec, "rough_ref", None))
     if info["outcome"] != "ok":  # the live tuner counts every aborted trial as unsafe
         score["P"] = min(float(score["P"]), -1.0 / rec.n)
         score["safe"] = False
@@ -204,6 +205,13 @@ def _run_trial(args: argparse.Namespace) -> int:
               else f"lap-2 RMS = {score['rms_lap2_m']} m")
     print(f"{args.log}: P(a) = {score['P']:.6f}  {detail}  L = {score['L']}/{score['L_expected']}  "
           f"outcome {info['outcome']}  {'safe' if score['safe'] else 'UNSAFE'}")
+    if score.get("rough_dps") is not None:
+        ref = score.get("rough_ref_dps")
+        print(f"  roughness {score['rough_dps']:.2f} deg/s (body rates above the cutoff; baseline "
+              f"{'not in the log' if ref is None else f'{ref:.2f}'}), smoothness term {score['smooth_penalty']:.3f}, "
+              f"largest tilt {score['tilt_max_deg']:.1f} deg")
+    elif score.get("rough_note"):
+        print(f"  roughness not measured: {score['rough_note']}")
     filled = sum(info.get("filled", {}).values())
     if filled:
         print(f"  {filled} sample value(s) interpolated across lost packets")

@@ -26,6 +26,7 @@ import numpy as np
 
 from ksbo_mav.profiles import Profile
 from ksbo_mav.scoring import ScoreConfig, score_trajectory
+from ksbo_mav.smoothness import smooth_penalty
 from ksbo_task.figure8_ne import Figure8H
 
 MASK_POS_VEL_ACC = 0x0C00
@@ -132,7 +133,23 @@ class Mission:
                         laps=self.laps, rate_hz=float(self.rate_hz), lead_in=self.lead_in)
 
     # --- score -------------------------------------------------------------------------------------------
-    def score(self, traj: Any, rms_ref: float | None = None) -> dict[str, Any]:
+    def lap_smoothness(self, t0_ms: int | None, att: dict[int, Any]) -> dict[str, Any] | None:
+        """:func:`ksbo_mav.smoothness.smoothness` of the scored lap's ATTITUDE samples (``att``: {time_boot_ms:
+        [roll, pitch, rollspeed, pitchspeed]}) of a trial started at ``t0_ms``; None for the planar task (the
+        paper's P) or without a start."""
+        if self.kind == "figure8-xz" or t0_ms is None:
+            return None
+        from ksbo_mav.smoothness import CUTOFF_HZ, smoothness
+
+        lo, hi = self.window
+        first, last = t0_ms + (lo + 0.5) * self.dt_ms, t0_ms + (hi + 0.5) * self.dt_ms
+        stamps = sorted(t for t in att if first < t <= last)
+        rows = np.array([att[t] for t in stamps], dtype=float).reshape(-1, 4)
+        cutoff = float(dict(self.score_section).get("rough_cutoff_hz") or CUTOFF_HZ)
+        return smoothness(np.asarray(stamps, dtype=float) / 1000.0, rows, cutoff)
+
+    def score(self, traj: Any, rms_ref: float | None = None, smooth: dict[str, Any] | None = None,
+              rough_ref: float | None = None) -> dict[str, Any]:
         """Score dict of a :class:`ksbo_task.flight.Trajectory` (``P`` first; JSON friendly).
 
         3-D missions (``figure8-ne``): lap-2 RMS of |measured - commanded| over the samples received, at any
@@ -141,6 +158,9 @@ class Mission:
         ``[score] rms_ref_m`` if set; a flight with neither is its own reference), ``ratio`` the profile's
         ``unsafe_rms_ratio`` (default 2). So the baseline scores ``1 - 1/ratio`` (0.5) on every vehicle, however
         well it tracks, and P < 0 ("unsafe") means tracking more than ``ratio`` times worse than the baseline.
+        ``smooth``: the lap's :func:`ksbo_mav.smoothness.smoothness`, recorded in the score; with the profile's
+        ``smooth_weight`` w > 0 and the baseline's roughness ``rough_ref``,
+        ``P = 1 - (rms / rms_ref + w max(0, rough - rough_ref) / max(rough_ref, 0.5 deg/s)) / ratio``.
         """
         if self.kind == "figure8-xz":
             return score_trajectory(traj, self.score_config()).item()
@@ -172,15 +192,21 @@ class Mission:
         rms = float(np.sqrt(np.mean(d * d))) if complete else None
         ref = cfg.get("rms_ref_m", rms_ref)
         ref = float(ref) if ref is not None else rms
+        smooth = smooth or {}
+        rough = smooth.get("rough_dps")
+        penalty = smooth_penalty(rough, rough_ref, float(cfg.get("smooth_weight") or 0.0))
         if rms is not None and ref is not None and ref > 0:
-            P = 1.0 - rms / (ratio * ref)
+            P = 1.0 - (rms / ref + penalty) / ratio
         elif rms is not None:
             P = 1.0
         else:
             P = -(1.0 - (min(traj.L, n) / n) ** 2) if traj.L < n else -1.0 / n
         out = {"P": P, "rms_lap2_m": rms, "rms_ref_m": ref, "unsafe_rms_ratio": ratio, "L": int(traj.L),
                "L_expected": n, "complete": complete, "safe": bool(P >= 0), "samples": count,
-               "rate_hz": rate, "max_gap_s": max_gap}
+               "rate_hz": rate, "max_gap_s": max_gap, "rough_dps": rough, "rough_ref_dps": rough_ref,
+               "tilt_max_deg": smooth.get("tilt_max_deg"), "smooth_penalty": penalty}
+        if smooth.get("rough_note"):
+            out["rough_note"] = smooth["rough_note"]
         if complete:
             out["max_err_m"] = float(d.max())
             out["rms_h_m"] = float(np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))))

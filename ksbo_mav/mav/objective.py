@@ -82,6 +82,7 @@ class MavlinkObjective:
         self.log = log
         #: 3-D missions: the baseline flight's lap-2 RMS; every trial's P is relative to it (Mission.score).
         self.rms_ref: float | None = None
+        self.rough_ref: float | None = None  # the baseline's roughness (deg/s), for the score's smoothness term
 
     def __call__(self, x: np.ndarray) -> float:
         return self.fly(x).P
@@ -106,7 +107,8 @@ class MavlinkObjective:
         i, self.index = self.index, self.index + 1
         stem = self.out_dir / f"trial_{i:03d}"
         started = time.time()
-        flown = self.trial_flight.fly(x, approach, stem.with_suffix(".tlog"), self.rms_ref)
+        flown = self.trial_flight.fly(x, approach, stem.with_suffix(".tlog"), self.rms_ref,
+                                       self.rough_ref)
         scored = score_trial(m, flown)
         flight = write_record(stem, i, label, x, self.profile.names, v.gain_map.to_params(x), flown, scored, started,
                               {"start_velocity_ned": approach.velocity.tolist(), "stress_start": stress,

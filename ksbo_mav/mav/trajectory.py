@@ -37,7 +37,7 @@ from ksbo_task.flight import Trajectory
 
 MAX_GAP = 5
 START_RE = re.compile(r"^ksbo (f8h?) start t0=(\d+) n=(\d+) dt=(\d+) w=(\d+)$")
-REF_RE = re.compile(r"^ksbo f8h? ref rms=([0-9.eE+-]+)$")
+REF_RE = re.compile(r"^ksbo f8h? ref rms=([0-9.eE+-]+)(?: rough=([0-9.eE+-]+))?$")
 END_RE = re.compile(r"^ksbo f8h? end L=(\d+) (\S+)$")
 AFTER_RE = re.compile(r"^ksbo f8h? after (\S+)$")
 _NUM = r"([0-9.eE+-]+)"
@@ -49,10 +49,11 @@ def start_text(tag: str, t0_ms: int, n: int, dt_ms: int, w: int) -> str:
     return f"ksbo {tag} start t0={t0_ms} n={n} dt={dt_ms} w={w}"
 
 
-def ref_text(tag: str, rms_ref: float) -> str:
-    """Marker sent after the start marker: the campaign's reference RMS (its baseline flight's lap-2 RMS), so
-    the score recomputed from the tlog is the live score."""
-    return f"ksbo {tag} ref rms={rms_ref:.6g}"
+def ref_text(tag: str, rms_ref: float, rough_ref: float | None = None) -> str:
+    """Marker sent after the start marker: the campaign's reference RMS (its baseline flight's lap-2 RMS) and
+    roughness (deg/s, :mod:`ksbo_mav.smoothness`), so the score recomputed from the tlog is the live score."""
+    rough = "" if rough_ref is None else f" rough={rough_ref:.6g}"
+    return f"ksbo {tag} ref rms={rms_ref:.6g}{rough}"
 
 
 def board_text(f: Figure8H) -> str:
@@ -90,6 +91,7 @@ class TrialRecorder:
     act: dict[int, np.ndarray] = field(default_factory=dict)
     refs: dict[int, np.ndarray] = field(default_factory=dict)
     rms_ref: float | None = None
+    rough_ref: float | None = None
     board: Figure8H | None = None  # the figure-8 flown on board: the reference instead of logged setpoints
     lost: int = 0  # vehicle packets lost on the link during the trial (MAVLink sequence gaps)
     _seq: dict[int, int] = field(default_factory=dict)
@@ -132,6 +134,7 @@ class TrialRecorder:
         m = REF_RE.match(text)
         if m and self.t0 is not None and self.L is None:
             self.rms_ref = float(m.group(1))
+            self.rough_ref = None if m.group(2) is None else float(m.group(2))
             return
         m = BOARD_RE.match(text)
         if m and self.t0 is not None and self.L is None:
@@ -206,7 +209,8 @@ class TrialRecorder:
                           source=source)
         info = {"kind": self.kind, "t0_ms": t0, "n": self.n, "dt_ms": dt, "window": [self.w, self.n], "L": L,
                 "outcome": self.outcome, "samples": int(len(T)), "setpoints": int(len(rt)),
-                "lost_packets": int(self.lost), "rms_ref": self.rms_ref, "on_board": self.board is not None}
+                "lost_packets": int(self.lost), "rms_ref": self.rms_ref,
+                "rough_ref": self.rough_ref, "on_board": self.board is not None}
         return traj, info
 
 

@@ -107,9 +107,10 @@ class TrialFlight:
         self.step: TrialStep | None = None
         self._step_record: StepRecord | None = None
 
-    def fly(self, x: np.ndarray, approach: Approach, tlog: Path, rms_ref: float | None) -> FlownTrial:
+    def fly(self, x: np.ndarray, approach: Approach, tlog: Path, rms_ref: float | None,
+            rough_ref: float | None = None) -> FlownTrial:
         """Fly the gains ``x`` (d,), already checked against the trust region, with a two-way tlog at ``tlog``;
-        ``rms_ref`` (3-D missions) goes into the tlog after the start marker."""
+        ``rms_ref`` and ``rough_ref`` (3-D missions: the baseline's) go into the tlog after the start marker."""
         v = self.vehicle
         link = v.link
         link.tlog = TlogWriter(tlog)
@@ -123,7 +124,7 @@ class TrialFlight:
         back = False
         try:
             try:
-                L = self._run(x, approach, rms_ref, lag)
+                L = self._run(x, approach, (rms_ref, rough_ref), lag)
             except _Abort as a:
                 outcome, message = T(a.outcome), a.message
                 L = self._steps(rec)
@@ -199,7 +200,8 @@ class TrialFlight:
         if bad:
             raise _Abort(*bad)
 
-    def _run(self, x: np.ndarray, approach: Approach, rms_ref: float | None, lag: list[float]) -> int:
+    def _run(self, x: np.ndarray, approach: Approach, refs: tuple[float | None, float | None],
+             lag: list[float]) -> int:
         v, m = self.vehicle, self.mission
         g = v.guided
         if v.guard is not None:
@@ -218,8 +220,8 @@ class TrialFlight:
         v.statustext(start_text(m.tag, t0, n, dt, m.window[0]))
         if board:
             v.statustext(board_text(m.figure8h))
-        if rms_ref is not None:  # after the start marker: a start forgets everything before it
-            v.statustext(ref_text(m.tag, rms_ref))
+        if refs[0] is not None:  # after the start marker: a start forgets everything before it
+            v.statustext(ref_text(m.tag, *refs))
         ref_at = lambda s: m.setpoint_at(min(max(s.time_boot_ms - t0, 0), n * dt) / 1000.0)[0]  # noqa: E731
         if board:  # the guard flies it and holds the end point: watch the figure-8 and the settle after it
             onboard_trial.watch(v, t0 + n * dt, lambda s: self._check(s, ref_at(s)), self.log)

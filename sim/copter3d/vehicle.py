@@ -78,6 +78,11 @@ class Copter3D:
         #: The rotor drag, times as calibrated, and the wind toward north [m/s]: kept over resets, as the
         #: authority is (a JSBSim reset puts its properties back to their initial values).
         self.drag_scale, self.wind_north = 1.0, 0.0
+        #: The navigation estimate's error (position, velocity; NED) the position loops see on top of the truth,
+        #: set each control period by the endpoint from its estimator (SIM_POS_NOISE, SIM_VEL_NOISE, SIM_ACC_NOISE):
+        #: as on an autopilot, the loops fly the estimate, so sensor noise reaches the attitude and the motors
+        #: through the gains. None: the loops see the truth (no sensor noise).
+        self.nav_error: tuple[np.ndarray, np.ndarray] | None = None
         self.reset()
 
     # --- parameters -------------------------------------------------------------------------------------
@@ -110,6 +115,7 @@ class Copter3D:
         self.backend.set_wind_north(self.wind_north)
         self.pos_ctrl.reset()
         self.att_ctrl.reset(0.0)
+        self.nav_error = None
         self._tgt_p = [float(v) for v in pos]
         self._tgt_v = [0.0, 0.0, 0.0]
         self._tgt_a = [0.0, 0.0, 0.0]
@@ -165,7 +171,11 @@ class Copter3D:
             if self._landed and not self._spooling:
                 thrust = np.full(4, IDLE_FRACTION * self.af.thrust_max)
             else:
-                roll_d, pitch_d, thr = self.pos_ctrl.update(s[0:3], s[3:6], s[8], tp, tv, ta)
+                pos, vel = s[0:3], s[3:6]
+                if self.nav_error is not None:
+                    pos, vel = [p + e for p, e in zip(pos, self.nav_error[0])], \
+                        [v + e for v, e in zip(vel, self.nav_error[1])]
+                roll_d, pitch_d, thr = self.pos_ctrl.update(pos, vel, s[8], tp, tv, ta)
                 # Angle boost on the measured tilt (ArduPilot), capped so a large tilt cannot ask for 2x thrust.
                 thr /= max(math.cos(s[6]) * math.cos(s[7]), 0.5)
                 thrust = self.att_ctrl.update(roll_d, pitch_d, self._tgt_yaw, s[6:9], s[9:12], min(thr, 1.0))

@@ -229,6 +229,8 @@ class Flight:
         self.truth = st
         acc = (st.vel - prev_vel) / self.model.ctrl_dt
         self.est_pos, self.est_vel = self.est.update(st.pos, st.vel, acc)
+        if hasattr(self.model, "nav_error"):  # a model whose loops fly the estimate (copter3d), as autopilots do
+            self.model.nav_error = None if self.est.exact else (self.est_pos - st.pos, self.est_vel - st.vel)
         if st.crashed:
             fence = st.crashed in getattr(self.model, "fence_codes", ())
             self.crash(STATUS_CRITICAL if fence else STATUS_EMERGENCY, st.crash_reason or "crash")

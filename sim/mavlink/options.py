@@ -147,7 +147,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--instance", type=int, default=0, metavar="N", help=f"add {INSTANCE_PORT_STEP}*N to the port")
     p.add_argument("--seed", type=int, default=None, help="seed of sensor noise and packet loss")
     p.add_argument("--noise", type=_noise, default=None, metavar="POS[,VEL[,ACC]]",
-                   help="sensor noise stds in m, m/s, m/s^2 (default 0: exact telemetry)")
+                   help="sensor noise stds in m, m/s, m/s^2 (default 0: exact telemetry); the telemetry reports a "
+                        "Kalman estimate from the noisy sensors, and the copter3d's position loops fly it, as an "
+                        "autopilot's do (so the gains turn the noise into attitude and motor activity)")
     p.add_argument("--params", default=None, metavar="FILE",
                    help="parameter file loaded at start and rewritten on every accepted PARAM_SET")
     p.add_argument("--vehicle", default="planar", help="vehicle model (default planar)")

@@ -197,15 +197,17 @@ def _row_class(r: TrialRow) -> str:
 
 def trial_table(rec: CampaignRecord) -> str:
     head = "".join(f"<th>{esc(n)}</th>" for n in rec.names)
+    rough = any(r.entry.rough is not None for r in rec.rows)  # 3-D missions: the lap's body-rate roughness
     out = ['<table><tr><th>trial</th><th class="l">kind</th><th>P</th><th>lap RMS (m)</th>'
-           f'<th class="l">outcome</th>{head}</tr>']
+           + ('<th>roughness (deg/s)</th>' if rough else '') + f'<th class="l">outcome</th>{head}</tr>']
     for r in rec.rows:
         gains = "".join(f"<td>{esc(_num(r.values[n]))}</td>" for n in rec.names)
         cls = _row_class(r)
         attr = f' class="{cls}"' if cls else ""
+        shake = f'<td>{esc(_num(r.entry.rough, ".2f"))}</td>' if rough else ""
         out.append(f'<tr{attr}><td>{r.trial}</td>'
                    f'<td class="l">{esc(r.role)}</td><td>{esc(_num(r.P, "+.4f"))}</td>'
-                   f'<td>{esc(_num(r.rms, ".3f"))}</td><td class="l o">{esc(r.outcome_text)}</td>{gains}</tr>')
+                   f'<td>{esc(_num(r.rms, ".3f"))}</td>{shake}<td class="l o">{esc(r.outcome_text)}</td>{gains}</tr>')
     out.append("</table>")
     return "\n".join(out)
 
