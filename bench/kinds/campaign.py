@@ -185,6 +185,9 @@ def _refly(key: dict[str, Any], ref: dict[str, float] | None, d: Path, ep, best:
     if ref:
         gains["long"] = ref
     t1 = time.time()
-    result["reflown"] = refly_in_turn(d, ep, gains, key.get("refly", 3))
+    rough: dict[str, list[float | None]] = {}
+    result["reflown"] = refly_in_turn(d, ep, gains, key.get("refly", 3), rough)
+    if any(v is not None for values in rough.values() for v in values):
+        result["reflown_rough"] = rough
     timing["refly_s"] = round(time.time() - t1, 1)
     refly_figures(result, cands, len(entries))

@@ -127,6 +127,7 @@ class Ways:
             except TrialStopped as exc:  # the tuner fell behind, the link: recorded, not scored
                 return {"outcome": "stopped", "message": str(exc)[:200]}
             row = {"outcome": str(f.outcome.value), "rms": f.score.get("rms_lap2_m"),
+                   "rough": f.score.get("rough_dps"), "tilt_max": f.score.get("tilt_max_deg"),
                    "true_rms": true_rms(Path(f.meta["tlog"]), self.v.mission),
                    "lag_max_ms": f.meta["link"].get("lag_max_ms"), "late_fraction": f.meta["link"].get("late_fraction"),
                    "lost": f.meta["link"].get("lost_packets"), "samples": f.score.get("samples"),

@@ -10,7 +10,9 @@ figure-8), taken off, flown, landed.
 Key: ``vehicle`` (ardupilot, px4; copter3d, our JSBSim copter in lockstep, for the streamed trial at the
 mission's rate alone: it has no scripting, no second port, no validation modes of its own), ``ways`` (a list),
 ``gains`` (a table: set name -> the parameters it changes from the vehicle's defaults; the defaults are the set
-"baseline"), ``reps`` (default 3); ``tuned`` (a reference to another sweep's recorded recommendation, as a
+"baseline"), ``reps`` (default 3), ``box`` ("profile", or "documented": the profile's box opened to the autopilot's
+documented ranges and the trust region to all of it, for gains a campaign would not fly); ``tuned`` (a reference
+to another sweep's recorded recommendation, as a
 campaign's ``reference``: flown as the set "tuned"); the vehicle's own values (ksbo_bench.kinds.vehicles:
 ``speedup``, ``sitl_params``, ``link``, ``build``, ``personality``, ``sim_args``).
 
@@ -32,10 +34,33 @@ from ksbo_bench.kinds.vehicles import SITL_KINDS, fresh_vehicle, is_sitl
 PROFILE = {"ardupilot": "ardupilot-copter", "px4": "px4-copter"}
 
 
-def _profile(key: dict[str, Any]) -> str:
+def _profile(key: dict[str, Any], work: Path | None = None) -> str:
+    """The profile's name; with ``box = "documented"``, a copy in ``work`` whose box is the documented ranges
+    (``range_min``/``range_max``) and whose trust region lets a trial go anywhere in it (the oracle's grid)."""
     if key["vehicle"] == "copter3d":
-        return PROFILE["px4" if key.get("personality") == "px4" else "ardupilot"]
-    return PROFILE[key["vehicle"]]
+        name = PROFILE["px4" if key.get("personality") == "px4" else "ardupilot"]
+    else:
+        name = PROFILE[key["vehicle"]]
+    if key.get("box", "profile") == "profile" or work is None:
+        return name
+    import re
+
+    from ksbo_params import __file__ as params_init
+
+    text = (Path(params_init).parent / f"{name}.toml").read_text()
+    head, *gains = text.split("[[gains]]")
+    for i, g in enumerate(gains):
+        for side in ("min", "max"):
+            documented = re.search(rf"\nrange_{side} = (\S+)", g)
+            if documented:
+                g = re.sub(rf"\n{side} = \S+", f"\n{side} = {documented.group(1)}", g, count=1)
+        gains[i] = g
+    text = "[[gains]]".join([head, *gains])
+    text = re.sub(r"\nmax_step_fraction = \S+", "\nmax_step_fraction = 1.0", text, count=1)
+    text = re.sub(r"\nmax_ratio = \S+", "\nmax_ratio = 1000.0", text, count=1)
+    path = work / f"{name}-documented-box.toml"
+    path.write_text(text)
+    return str(path)
 
 
 def check(key: dict[str, Any]) -> None:
@@ -49,6 +74,8 @@ def check(key: dict[str, Any]) -> None:
     if bad:
         raise SweepError(f"flights: unknown way {bad[0]!r} (streamed, streamed@HZ, onboard, "
                          f"{', '.join(flight_ways.CLIENTS)}, {', '.join(flight_ways.MANOEUVRES)})")
+    if key.get("box", "profile") not in ("profile", "documented"):
+        raise SweepError(f"flights: box must be profile or documented, not {key['box']!r}")
     if key["vehicle"] != "ardupilot" and any(w == "onboard" or w in flight_ways.CLIENTS for w in key["ways"]):
         raise SweepError("flights: the onboard trial and the separate client fly ArduCopter only")
 
@@ -87,7 +114,7 @@ def _run(key: dict[str, Any], inp: dict[str, Any], work: Path) -> dict[str, Any]
     sets = {"baseline": {}, **dict(key.get("gains", {})), **({"tuned": inp["tuned"]} if "tuned" in inp else {})}
     rows: list[dict[str, Any]] = []
     with fresh_vehicle(key, work) as fresh:
-        v = Vehicle.connect(fresh.ep, _profile(key), log=log)
+        v = Vehicle.connect(fresh.ep, _profile(key, work), log=log)
         try:
             check_link(v, log)
             base = {n: v.params.read(n) for n in v.gain_map.param_names}

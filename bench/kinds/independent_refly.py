@@ -10,23 +10,26 @@ from pathlib import Path
 from typing import Any
 
 
-def _fly(obj, x, label: str, tries: int = 3) -> float | None:
+def _fly(obj, x, label: str, tries: int = 3) -> dict:
+    """The re-flight's score (empty when the tuner stopped it ``tries`` times)."""
     from ksbo_mav.errors import TrialStopped
 
     for k in range(tries):
         try:
-            return obj.fly(x, label=label).score.get("rms_lap2_m")
+            return obj.fly(x, label=label).score
         except TrialStopped as e:
             print(f"re-flight of {label} stopped ({e}); flying it again", file=sys.stderr)
             if k == tries - 1:
                 raise
-    return None
+    return {}
 
 
-def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3) -> dict[str, list[float | None]]:
+def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3,
+                  rough: dict[str, list[float | None]] | None = None) -> dict[str, list[float | None]]:
     """{"baseline" and each label of ``gains`` ({label: {parameter: value}}): lap-2 RMS of each of its ``n``
     flights}, flown in turn on the vehicle the campaign in ``d`` left hovering (reached at Endpoint ``ep``); lands.
-    Gains not named in a set keep the baseline's values."""
+    Gains not named in a set keep the baseline's values. ``rough``, when given, receives each flight's roughness
+    (deg/s, ksbo_mav.smoothness) the same way."""
     from ksbo_mav.mav.objective import MavlinkObjective
     from ksbo_mav.mav.params import load_snapshot
     from ksbo_mav.mav.vehicle import Vehicle
@@ -43,7 +46,10 @@ def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3) -
         out: dict[str, list[float | None]] = {k: [] for k in xs}
         for _ in range(n):
             for k, x in xs.items():
-                out[k].append(_fly(obj, x, k))
+                score = _fly(obj, x, k)
+                out[k].append(score.get("rms_lap2_m"))
+                if rough is not None:
+                    rough.setdefault(k, []).append(score.get("rough_dps"))
         v.land()
         return out
     finally:

@@ -81,11 +81,11 @@ def section(title: str, names: tuple[str, ...], extra: str, loaded: dict, page_p
 def more(loaded: dict[str, Any]) -> str:
     """The pages of the sweeps not shown above, and the earlier outputs kept as history."""
     shown = {n for _, names, _ in SECTIONS for n in names}
-    pages = [f"- [{sw.title}](benchmarks/pages/{name}.md) (`{name}`)" for name, (sw, recs) in loaded.items()
+    pages = [f"[{sw.title}](benchmarks/pages/{name}.md) (`{name}`)" for name, (sw, recs) in loaded.items()
              if recs and name not in shown]
     waiting = [f"`{name}`" for name, (sw, recs) in loaded.items() if not recs and not sw.archive]
     history = sorted({a for sw, _ in loaded.values() for a in sw.report.get("archive", [])})
-    out = ["## More results", "\n".join(pages)]
+    out = ["## More results", "Pages: " + "; ".join(pages) + "."]
     if waiting:
         out.append(f"Declared, not run yet (benchmarks/notes/sweeps.md says what each needs): {', '.join(waiting)}.")
     if history:

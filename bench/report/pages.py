@@ -76,11 +76,14 @@ def _evaluation(sw: sweeps.Sweep, recs: list[dict[str, Any]]) -> list[str]:
 
 
 def _builders() -> dict[str, Any]:
-    from ksbo_bench.report import campaign_pages, fault_matrix, flight_pages, realtime, wind_campaigns, wind_inference
+    from ksbo_bench.report import (campaign_pages, fault_matrix, flight_pages, oracle, realtime, wind_campaigns,
+                                   wind_inference)
 
     return {"warm-start": campaign_pages.warm_start, "drift": campaign_pages.drift,
             "link-campaign": campaign_pages.link_campaign, "mavlink-campaign": campaign_pages.mavlink_campaign,
-            "realtime": realtime.report, "flights": flight_pages.report, "evaluation": _evaluation,
+            "realtime": realtime.report, "flights": flight_pages.report, "oracle": oracle.report,
+            "one-pack": oracle.one_pack,
+            "evaluation": _evaluation,
             "fault-matrix": lambda sw, recs: [fault_matrix.report(recs)],
             "wind": lambda sw, recs: [wind_inference.report(recs)], "wind-campaigns": wind_campaigns.page}
 

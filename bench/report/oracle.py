@@ -1,0 +1,154 @@
+"""The oracle sweeps' pages: a gain grid flown on one vehicle per condition (kind ``flights``), one table per cell,
+a row per gain set: its mean lap-2 RMS and roughness over the repeats, the largest tilt, the score with the
+profile's smoothness term and with tracking alone (both against the baseline flown in the same cell), and the
+oracle, the best set by the score with the smoothness term, said with what limited it."""
+
+from __future__ import annotations
+
+import statistics
+from typing import Any
+
+from ksbo_bench.report.describe import condition, vehicle
+from ksbo_mav.smoothness import smooth_penalty
+
+#: The copter profiles' score constants (params/*-copter.toml [score]).
+RATIO, WEIGHT = 2.0, 0.5
+
+
+def _mean(rows: list[dict[str, Any]], field: str) -> float | None:
+    v = [r[field] for r in rows if r.get(field) is not None]
+    return statistics.mean(v) if v else None
+
+
+def summary(rec: dict[str, Any]) -> list[dict[str, Any]]:
+    """Per gain set: {set, gains, rms, rough, tilt, n, bad, P, P_track}; P from the means, against the baseline's."""
+    res = rec["result"]
+    rows = res["flights"]
+    base = [r for r in rows if r["set"] == "baseline" and r.get("outcome") == "ok"]
+    rms0, rough0 = _mean(base, "rms"), _mean(base, "rough")
+    out = []
+    for name, gains in res["sets"].items():
+        mine = [r for r in rows if r["set"] == name]
+        ok = [r for r in mine if r.get("outcome") == "ok" and r.get("rms") is not None]
+        rms, rough = _mean(ok, "rms"), _mean(ok, "rough")
+        tilt = max((r["tilt_max"] for r in ok if r.get("tilt_max") is not None), default=None)
+        P = P_track = None
+        if rms is not None and rms0 and len(ok) == len(mine):  # a set with an aborted flight is no candidate
+            P_track = 1.0 - rms / (RATIO * rms0)
+            P = P_track - smooth_penalty(rough, rough0, WEIGHT) / RATIO
+        out.append({"set": name, "gains": gains, "rms": rms, "rough": rough, "tilt": tilt, "n": len(mine),
+                    "bad": len(mine) - len(ok), "P": P, "P_track": P_track})
+    return out
+
+
+def _limit(best: dict[str, Any], track: dict[str, Any], ranges: dict[str, tuple[float, float]],
+           axes: list[str]) -> str:
+    """What kept the oracle where it is: smoothness (tracking alone would go elsewhere), a grid gain at the end of
+    its documented range."""
+    edges = [f"{p} at its documented {'upper' if v >= hi else 'lower'} end {v:g}"
+             for p, (lo, hi) in ranges.items() if p in axes and (v := best["gains"].get(p)) is not None
+             and not lo < v < hi]
+    said = []
+    if track["set"] != best["set"]:
+        said.append(f"smoothness: tracking alone would take {track['set']} (lap RMS {track['rms']:.3f} m, roughness "
+                    f"{track['rough']:.2f} deg/s)")
+    if edges:
+        said.append("the range: " + ", ".join(edges))
+    return "; ".join(said) or "neither the range nor smoothness: an inner optimum of the grid"
+
+
+def cell(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> list[str]:
+    k = rec["key"]
+    rows = summary(rec)
+    axes = [p for p in ranges if any(p in r["gains"] for r in rows)]
+    head = ("| set | " + " | ".join(axes) + " | flights | lap RMS (m) | roughness (deg/s) | largest tilt (deg) | "
+            "P, tracking alone | P (with smoothness) |")
+    caption = (f"**{vehicle(k)}, {k.get('condition') or condition(k)}, {k.get('reps', 3)} flight(s) per set, "
+               f"{(rec.get('run', {}).get('started') or '')[:10]}**")
+    out = [head, "|" + "---|" * (len(axes) + 6)]
+    fmt = lambda v, s: "–" if v is None else format(v, s)  # noqa: E731
+    scored = [r for r in rows if r["P"] is not None]
+    best = max(scored, key=lambda r: r["P"]) if scored else None
+    for r in sorted(rows, key=lambda r: tuple(r["gains"].get(p, 0.0) for p in axes)):
+        mark = "**" if best is not None and r["set"] == best["set"] else ""
+        bad = f" ({r['bad']} not ok)" if r["bad"] else ""
+        out.append(f"| {mark}{r['set']}{mark} | " + " | ".join(fmt(r["gains"].get(p), "g") for p in axes)
+                   + f" | {r['n']}{bad} | {fmt(r['rms'], '.3f')} | {fmt(r['rough'], '.2f')} | "
+                   f"{fmt(r['tilt'], '.1f')} | {fmt(r['P_track'], '.3f')} | {mark}{fmt(r['P'], '.3f')}{mark} |")
+    return [caption, "\n".join(out)]
+
+
+def _headline(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> str:
+    """One row of the summary: the cell's condition, baseline, oracle (by the score), best by tracking alone."""
+    rows = summary(rec)
+    scored = [r for r in rows if r["P"] is not None]
+    if not scored:
+        return f"| {rec['key'].get('condition')} | – | – | – | – | – |"
+    best, track = max(scored, key=lambda r: r["P"]), max(scored, key=lambda r: r["P_track"])
+    base = next(r for r in rows if r["set"] == "baseline")
+    axes = sorted({p for r in rows for p, v in r["gains"].items() if v != base["gains"].get(p)})
+    shown = lambda r: f"{r['set']}: {r['rms']:.3f} m, {r['rough']:.2f} deg/s"  # noqa: E731
+    return (f"| {rec['key'].get('condition')} | {shown(base)} | **{shown(best)}**, P {best['P']:.3f} | "
+            f"{shown(track)}, P {track['P']:.3f} | {len(rows)} sets, {len(rec['result']['flights'])} flights | "
+            f"{_limit(best, track, ranges, axes)} |")
+
+
+def report(sw, recs: list[dict[str, Any]]) -> list[str]:
+    from ksbo_bench.kinds.flights import _profile
+    from ksbo_mav.campaign.widen import documented_range
+    from ksbo_mav.profiles import load_profile
+
+    cells: list[str] = []
+    head = ["The oracle in each condition: the best set by the score with the smoothness term (lap RMS, roughness)",
+            "| condition | baseline | oracle | best by tracking alone | flown | what limited the oracle |\n"
+            "|---|---|---|---|---|---|"]
+    for rec in recs:
+        prof = load_profile(_profile(rec["key"]))
+        ranges = {g.name: (float(lo), float(hi)) for g, (lo, hi) in zip(prof.gains, documented_range(prof))}
+        head[1] += "\n" + _headline(rec, ranges)
+        cells += cell(rec, ranges)
+    out = [*head, *cells]
+    out.append(f"P from each set's mean lap RMS and roughness against the baseline's in the same cell: P = 1 - (RMS / "
+               f"RMS_base + {WEIGHT:g} max(0, rough - rough_base) / max(rough_base, 0.5)) / {RATIO:g} (the copter "
+               "profiles' score); a set with a flight that did not end ok is no candidate.")
+    return out
+
+
+def _oracle_P(condition_name: str) -> tuple[str, float] | None:
+    """(set, P) of the oracle sweep's cell in ``condition_name``, from its store (None when not flown)."""
+    from ksbo_bench import sweep as sweeps
+    from ksbo_bench.store import Store
+
+    sw = next((s for s in sweeps.all_sweeps() if s.name == "oracle-copter3d"), None)
+    recs = [r for r in Store(sw.store).records() if r["key"].get("condition") == condition_name] if sw else []
+    scored = [r for r in summary(recs[-1]) if r["P"] is not None] if recs else []
+    best = max(scored, key=lambda r: r["P"]) if scored else None
+    return (best["set"], best["P"]) if best else None
+
+
+def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
+    """The default campaign's cells: flights, safety, the re-flown baseline and recommendation (lap RMS,
+    roughness), the recommendation's score against the re-flown baseline and its share of the oracle's gain."""
+    out = ["| campaign | seed | flights | aborted | crashed | P < 0 | baseline RMS (m) / roughness | "
+           "recommendation RMS (m) / roughness | P of the recommendation | share of the oracle's gain |",
+           "|" + "---|" * 10]
+    oracle = None
+    for rec in recs:
+        res, saf = rec["result"], rec.get("safety", {})
+        rms, rough = res.get("reflown", {}), res.get("reflown_rough", {})
+        m = {k: statistics.mean([x for x in v if x is not None] or [float("nan")]) for k, v in rms.items()}
+        g = {k: statistics.mean([x for x in v if x is not None] or [float("nan")]) for k, v in rough.items()}
+        P = 1.0 - (m["rec"] / m["baseline"] + WEIGHT * max(0.0, g["rec"] - g["baseline"]) / max(g["baseline"], 0.5)) \
+            / RATIO if "rec" in g and "baseline" in g else None
+        oracle = oracle or _oracle_P(rec["key"].get("condition", ""))
+        share = f"{(P - 0.5) / (oracle[1] - 0.5):.0%}" if P is not None and oracle and oracle[1] > 0.5 else "–"
+        out.append(f"| {rec['key'].get('label', 'default')} | {rec['key'].get('seed')} | "
+                   f"{rec['flights']['total']} | {saf.get('aborted')} | "
+                   f"{saf.get('crashed')} | {saf.get('unsafe')} | {m['baseline']:.3f} / {g.get('baseline', 0):.2f} | "
+                   f"{m['rec']:.3f} / {g.get('rec', 0):.2f} | {'–' if P is None else f'{P:.3f}'} | {share} |")
+    out = ["\n".join(out)]
+    if oracle:
+        out.append(f"The oracle (oracle-copter3d, same condition): {oracle[0]}, P {oracle[1]:.3f}. Share of its gain: "
+                   "(P − 0.5) / (P_oracle − 0.5), P from the re-flown means against this cell's re-flown baseline "
+                   "(the score with the smoothness term); the baseline scores 0.5.")
+    return out
