@@ -9,6 +9,7 @@ import os
 os.environ["MAVLINK20"] = "1"
 
 from contextlib import contextmanager  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 from ksbo_mav.mav.link import Endpoint  # noqa: E402
 from ksbo_mav.mav.vehicle import Vehicle  # noqa: E402
@@ -44,3 +45,15 @@ def baseline() -> dict[str, float]:
 
     prof = load_profile("sim-planar")
     return {n: float(np.float32(x)) for n, x in zip(prof.names, prof.default)}
+
+
+def short_figure8(profile: Path) -> Path:
+    """Rewrite the 3-D copter profile file ``profile`` with a short figure-8 (4 m x 1 m, 8 s period, 2 s lead-in):
+    a trial takes a third of the profile's. Returns ``profile``."""
+    import re
+
+    text = profile.read_text()
+    for key, value in (("scale_m", 4.0), ("scale_east_m", 1.0), ("period_s", 8.0), ("lead_in_s", 2.0)):
+        text = re.sub(rf"\n{key} = \S+", f"\n{key} = {value}", text, count=1)
+    profile.write_text(text)
+    return profile

@@ -7,7 +7,6 @@ recommendation the validation found worse (unless --force) and `validate` flies 
 from __future__ import annotations
 
 import json
-import re
 import shutil
 import signal
 import subprocess
@@ -17,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from mav_tune_helpers import fresh_read, sim_and_endpoint
+from mav_tune_helpers import fresh_read, short_figure8, sim_and_endpoint
 
 from ksbo_mav.campaign.validation_log import ValidationJournal
 from ksbo_mav.campaign.verdict import judge_pairs, refusal
@@ -32,12 +31,7 @@ NAMES = ["PSC_NE_POS_P", "PSC_NE_VEL_P", "PSC_NE_VEL_I", "PSC_NE_VEL_D", "PSC_D_
 def _profile(tmp: Path) -> Path:
     """The fault matrix's copter profile (small validation manoeuvres) with a short figure-8 (4 m x 1 m, 8 s period,
     2 s lead-in): a trial takes a third of the profile's."""
-    p = _fault_profile(tmp)
-    text = p.read_text()
-    for key, value in (("scale_m", 4.0), ("scale_east_m", 1.0), ("period_s", 8.0), ("lead_in_s", 2.0)):
-        text = re.sub(rf"\n{key} = \S+", f"\n{key} = {value}", text, count=1)
-    p.write_text(text)
-    return p
+    return short_figure8(_fault_profile(tmp))
 
 
 def _lines(path: Path) -> list[dict]:

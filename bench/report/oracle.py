@@ -104,7 +104,11 @@ def report(sw, recs: list[dict[str, Any]]) -> list[str]:
             "|---|---|---|---|---|---|"]
     for rec in recs:
         prof = load_profile(_profile(rec["key"]))
-        ranges = {g.name: (float(lo), float(hi)) for g, (lo, hi) in zip(prof.gains, documented_range(prof))}
+        ranges = {}
+        for g, (lo, hi) in zip(prof.gains, documented_range(prof)):  # by either generation's name (ArduPilot)
+            for name in (g.name, g.extra.get("legacy_name")):
+                if name:
+                    ranges[name] = (float(lo), float(hi))
         head[1] += "\n" + _headline(rec, ranges)
         cells += cell(rec, ranges)
     out = [*head, *cells]
