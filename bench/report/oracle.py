@@ -42,13 +42,17 @@ def summary(rec: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def _limit(best: dict[str, Any], track: dict[str, Any], ranges: dict[str, tuple[float, float]],
-           axes: list[str]) -> str:
-    """What kept the oracle where it is: smoothness (tracking alone would go elsewhere), a grid gain at the end of
-    its documented range."""
+           axes: list[str], rows: list[dict[str, Any]]) -> str:
+    """What kept the oracle where it is: safety (sets further along every grid gain aborted), smoothness (tracking
+    alone would go elsewhere), a grid gain at the end of its documented range."""
     edges = [f"{p} at its documented {'upper' if v >= hi else 'lower'} end {v:g}"
              for p, (lo, hi) in ranges.items() if p in axes and (v := best["gains"].get(p)) is not None
              and not lo < v < hi]
     said = []
+    beyond = [r["set"] for r in rows if r["bad"] and r["set"] != best["set"]
+              and all(r["gains"].get(p, 0.0) >= best["gains"].get(p, 0.0) for p in axes)]
+    if beyond:
+        said.append(f"safety: {', '.join(beyond)}, beyond it, did not end ok (aborted by the monitor)")
     if track["set"] != best["set"]:
         said.append(f"smoothness: tracking alone would take {track['set']} (lap RMS {track['rms']:.3f} m, roughness "
                     f"{track['rough']:.2f} deg/s)")
@@ -90,7 +94,7 @@ def _headline(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> st
     shown = lambda r: f"{r['set']}: {r['rms']:.3f} m, {r['rough']:.2f} deg/s"  # noqa: E731
     return (f"| {rec['key'].get('condition')} | {shown(base)} | **{shown(best)}**, P {best['P']:.3f} | "
             f"{shown(track)}, P {track['P']:.3f} | {len(rows)} sets, {len(rec['result']['flights'])} flights | "
-            f"{_limit(best, track, ranges, axes)} |")
+            f"{_limit(best, track, ranges, axes, rows)} |")
 
 
 def report(sw, recs: list[dict[str, Any]]) -> list[str]:
