@@ -88,6 +88,8 @@ def test_continue_mode_scores_against_the_baseline_now_from_its_re_flights(tmp_p
     # slope 0.04 m per flight over trials 0, 4, 5)
     assert watch.reference_rms(j, 6) == pytest.approx(0.44)
     assert watch.corrected(j, 1 - 0.45 / 0.4, 0.45, 2.0) == pytest.approx(1 - 0.45 / 0.88)
+    # a trial charged 0.3 for its roughness keeps that charge against the baseline now
+    assert watch.corrected(j, 1 - (0.45 / 0.2 + 0.3) / 2, 0.45, 2.0, 0.3) == pytest.approx(1 - 0.45 / 0.88 - 0.15)
     (tmp_path / "b").mkdir()  # a vehicle that got better again: held at the newest re-flight, never lowered
     better = _journal(tmp_path / "b", [("opt", 0.5, 0.20), ("baseline", 0.0, 0.40), ("baseline", 0.1, 0.35),
                                        ("baseline", 0.2, 0.30)])

@@ -34,33 +34,10 @@ from ksbo_bench.kinds.vehicles import SITL_KINDS, fresh_vehicle, is_sitl
 PROFILE = {"ardupilot": "ardupilot-copter", "px4": "px4-copter"}
 
 
-def _profile(key: dict[str, Any], work: Path | None = None) -> str:
-    """The profile's name; with ``box = "documented"``, a copy in ``work`` whose box is the documented ranges
-    (``range_min``/``range_max``) and whose trust region lets a trial go anywhere in it (the oracle's grid)."""
+def _profile(key: dict[str, Any]) -> str:
     if key["vehicle"] == "copter3d":
-        name = PROFILE["px4" if key.get("personality") == "px4" else "ardupilot"]
-    else:
-        name = PROFILE[key["vehicle"]]
-    if key.get("box", "profile") == "profile" or work is None:
-        return name
-    import re
-
-    from ksbo_params import __file__ as params_init
-
-    text = (Path(params_init).parent / f"{name}.toml").read_text()
-    head, *gains = text.split("[[gains]]")
-    for i, g in enumerate(gains):
-        for side in ("min", "max"):
-            documented = re.search(rf"\nrange_{side} = (\S+)", g)
-            if documented:
-                g = re.sub(rf"\n{side} = \S+", f"\n{side} = {documented.group(1)}", g, count=1)
-        gains[i] = g
-    text = "[[gains]]".join([head, *gains])
-    text = re.sub(r"\nmax_step_fraction = \S+", "\nmax_step_fraction = 1.0", text, count=1)
-    text = re.sub(r"\nmax_ratio = \S+", "\nmax_ratio = 1000.0", text, count=1)
-    path = work / f"{name}-documented-box.toml"
-    path.write_text(text)
-    return str(path)
+        return PROFILE["px4" if key.get("personality") == "px4" else "ardupilot"]
+    return PROFILE[key["vehicle"]]
 
 
 def check(key: dict[str, Any]) -> None:
@@ -98,6 +75,7 @@ def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, 
 
 def _run(key: dict[str, Any], inp: dict[str, Any], work: Path) -> dict[str, Any]:
     from ksbo_mav.campaign.mission_rate import check_link
+    from ksbo_mav.campaign.widen import box_profile, documented_range
     from ksbo_mav.campaign.onboard import guard_link_timeout
     from ksbo_mav.errors import KsboError
     from ksbo_mav.mav.guard_script import config_for, figure8_for, new_config_id
@@ -114,8 +92,10 @@ def _run(key: dict[str, Any], inp: dict[str, Any], work: Path) -> dict[str, Any]
     sets = {"baseline": {}, **dict(key.get("gains", {})), **({"tuned": inp["tuned"]} if "tuned" in inp else {})}
     rows: list[dict[str, Any]] = []
     with fresh_vehicle(key, work) as fresh:
-        v = Vehicle.connect(fresh.ep, _profile(key, work), log=log)
+        v = Vehicle.connect(fresh.ep, _profile(key), log=log)
         try:
+            if key.get("box", "profile") == "documented":  # the gains are checked against that box alone
+                v.tuning.profile = box_profile(v.profile, documented_range(v.profile))
             check_link(v, log)
             base = {n: v.params.read(n) for n in v.gain_map.param_names}
             guard = None

@@ -20,6 +20,11 @@ def _mean(rows: list[dict[str, Any]], field: str) -> float | None:
     return statistics.mean(v) if v else None
 
 
+def _score(rms: float, rms0: float, rough: float | None, rough0: float | None) -> float:
+    """The copter profiles' score of a lap RMS and roughness against the baseline's (ksbo_mav.mav.mission)."""
+    return 1.0 - (rms / rms0 + smooth_penalty(rough, rough0, WEIGHT)) / RATIO
+
+
 def summary(rec: dict[str, Any]) -> list[dict[str, Any]]:
     """Per gain set: {set, gains, rms, rough, tilt, n, bad, P, P_track}; P from the means, against the baseline's."""
     res = rec["result"]
@@ -34,8 +39,7 @@ def summary(rec: dict[str, Any]) -> list[dict[str, Any]]:
         tilt = max((r["tilt_max"] for r in ok if r.get("tilt_max") is not None), default=None)
         P = P_track = None
         if rms is not None and rms0 and len(ok) == len(mine):  # a set with an aborted flight is no candidate
-            P_track = 1.0 - rms / (RATIO * rms0)
-            P = P_track - smooth_penalty(rough, rough0, WEIGHT) / RATIO
+            P_track, P = _score(rms, rms0, None, None), _score(rms, rms0, rough, rough0)
         out.append({"set": name, "gains": gains, "rms": rms, "rough": rough, "tilt": tilt, "n": len(mine),
                     "bad": len(mine) - len(ok), "P": P, "P_track": P_track})
     return out
@@ -146,8 +150,7 @@ def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
         rms, rough = res.get("reflown", {}), res.get("reflown_rough", {})
         m = {k: statistics.mean([x for x in v if x is not None] or [float("nan")]) for k, v in rms.items()}
         g = {k: statistics.mean([x for x in v if x is not None] or [float("nan")]) for k, v in rough.items()}
-        P = 1.0 - (m["rec"] / m["baseline"] + WEIGHT * max(0.0, g["rec"] - g["baseline"]) / max(g["baseline"], 0.5)) \
-            / RATIO if "rec" in g and "baseline" in g else None
+        P = _score(m["rec"], m["baseline"], g["rec"], g["baseline"]) if "rec" in g and "baseline" in g else None
         oracle = oracle or _oracle_P(rec["key"].get("condition", ""))
         share = f"{(P - 0.5) / (oracle[1] - 0.5):.0%}" if P is not None and oracle and oracle[1] > 0.5 else "–"
         out.append(f"| {rec['key'].get('label', 'default')} | {rec['key'].get('seed')} | "

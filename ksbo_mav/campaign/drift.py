@@ -234,18 +234,14 @@ class DriftWatch:
         """Continue mode: score from now on against the newest baseline flight."""
         self.ref = self.flights(journal)[-1]
 
-    def corrected(self, journal: Journal, P: float, rms: float | None, ratio: float) -> float:
+    def corrected(self, journal: Journal, P: float, rms: float | None, ratio: float, smooth: float = 0.0) -> float:
         """A trial's score against the baseline in the same condition (the newest re-flight once the test has
-        fired): ``1 - rms / (ratio rms_ref)`` with the RMS (less the smoothness term P was given, unchanged),
-        else P shifted by the baseline's drop in P."""
+        fired): ``1 - rms / (ratio rms_ref) - smooth / ratio`` with the RMS (``smooth``: the smoothness term the trial
+        was scored with, unchanged), else P shifted by the baseline's drop in P."""
         if self.ref is None:
             return P
-        first = self.flights(journal)[0].rms
         if rms is not None and self.ref.rms:
-            # P = 1 - (rms / first + smoothness) / ratio: the smoothness term is the part the RMS does not explain
-            smooth = 1.0 - P - rms / (ratio * first) if first else 0.0
-            smooth = smooth if smooth > 1e-9 else 0.0  # rounding, not a term
-            return 1.0 - rms / (ratio * self.reference_rms(journal, len(journal.entries))) - smooth
+            return 1.0 - rms / (ratio * self.reference_rms(journal, len(journal.entries))) - smooth / ratio
         return P + (self.anchor(journal).P - self.ref.P)
 
     def reference_rms(self, journal: Journal, trial: int) -> float:

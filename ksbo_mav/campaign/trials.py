@@ -89,7 +89,8 @@ class TrialLoop:
         drift = self.drift
         if kind == "opt" and drift is not None and drift.ref is not None:  # scored in the same condition
             cond["P_corrected"] = drift.corrected(self.journal, f.P, f.score.get("rms_lap2_m"),
-                                                  float(f.score.get("unsafe_rms_ratio", 2.0)))
+                                                  float(f.score.get("unsafe_rms_ratio", 2.0)),
+                                                  float(f.score.get("smooth_penalty") or 0.0))
             cond["ref_trial"] = drift.ref.trial
         return replace(e, cond=cond or None)
 

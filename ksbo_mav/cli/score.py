@@ -181,7 +181,7 @@ def _run_trial(args: argparse.Namespace) -> int:
                          f"match profile {profile.name}'s mission; pass the campaign's --profile")
     rms_ref = args.rms_ref if args.rms_ref is not None else getattr(rec, "rms_ref", None)
     score = mission.score(traj, rms_ref=rms_ref, smooth=mission.lap_smoothness(rec.t0, rec.att),
-                          rough_ref=getattr(rec, "rough_ref", None))
+                          rough_ref=rec.rough_ref)
     if info["outcome"] != "ok":  # the live tuner counts every aborted trial as unsafe
         score["P"] = min(float(score["P"]), -1.0 / rec.n)
         score["safe"] = False

@@ -26,7 +26,7 @@ import numpy as np
 
 from ksbo_mav.profiles import Profile
 from ksbo_mav.scoring import ScoreConfig, score_trajectory
-from ksbo_mav.smoothness import smooth_penalty
+from ksbo_mav.smoothness import CUTOFF_HZ, smooth_penalty, smoothness
 from ksbo_task.figure8_ne import Figure8H
 
 MASK_POS_VEL_ACC = 0x0C00
@@ -139,8 +139,6 @@ class Mission:
         paper's P) or without a start."""
         if self.kind == "figure8-xz" or t0_ms is None:
             return None
-        from ksbo_mav.smoothness import CUTOFF_HZ, smoothness
-
         lo, hi = self.window
         first, last = t0_ms + (lo + 0.5) * self.dt_ms, t0_ms + (hi + 0.5) * self.dt_ms
         stamps = sorted(t for t in att if first < t <= last)
