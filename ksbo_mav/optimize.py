@@ -40,6 +40,8 @@ def optimize(
     callback: Callable[[int, np.ndarray, float], bool | None] | None = None,
     check_x0: bool = True,
     early_stop: Mapping[str, Any] | None = None,
+    limits: Any = None,
+    on_grow: Callable[[dict[str, Any]], None] | None = None,
     **options: Any,
 ) -> OptimizeResult:
     """Maximise ``fun`` without (knowingly) evaluating it below ``p_min``, starting from the safe ``x0``.
@@ -64,6 +66,11 @@ def optimize(
             defaults) ends a safe method's search before it once what the next proposal can gain stays below
             ``ratio`` × the re-flight noise (:mod:`ksbo_mav.opt.methods.stopping`); ``result.info["stop"]`` says
             where and why. The budget stays the ceiling.
+        limits: None, or (d, 2) lower/upper limits containing ``bounds``: ``bounds`` is then the first search box
+            of a safe method, which grows towards ``limits`` where its incumbent sits on an edge
+            (:mod:`ksbo_mav.opt.acquisition.growing_box`); the prior may lie anywhere within ``limits``.
+            ``on_grow(growth)`` hears each edge as it moves (trial, dim, side, old, new; also in
+            ``result.info["box"]``).
         check_x0: raise :class:`ksbo_mav.errors.UnsafeStartError` (an :class:`InputError`) if ``fun(x0) < p_min``
             or x0's trial aborted or crashed (the run cannot be safe from there).
         **options: method settings, see :class:`ksbo_mav.opt.options.Options` (e.g. ``beta=3.0``,
@@ -104,6 +111,9 @@ def optimize(
         rule_from(stop)  # InputError naming a bad key or value, before anything is evaluated
 
     lower, upper = b[:, 0], b[:, 1]
+    lim = b if limits is None else _as_matrix("limits", limits, (d, 2))
+    if np.any(lim[:, 0] > lower) or np.any(lim[:, 1] < upper):
+        raise InputError("limits must contain bounds")
     pX, py = np.zeros((0, d)), np.zeros(0)
     if prior is not None:
         try:
@@ -112,12 +122,14 @@ def optimize(
             raise InputError("prior must be a pair (X, y)") from None
         pX = _as_matrix("prior X", pX_raw, (None, d))
         py = _as_matrix("prior y", py_raw, (pX.shape[0],))
-        if np.any(pX < lower) or np.any(pX > upper):
-            raise InputError("prior X has points outside bounds")
+        if np.any(pX < lim[:, 0]) or np.any(pX > lim[:, 1]):
+            raise InputError("prior X has points outside " + ("bounds" if limits is None else "limits"))
         pX = (pX - lower) / (upper - lower)
 
     problem = Problem(
         fun=fun, lower=lower, upper=upper, x0=(x - lower) / (upper - lower), budget=int(budget),
         p_min=float(p_min), prior_X=pX, prior_y=py, callback=callback, early_stop=stop,
+        limit_lo=(lim[:, 0] - lower) / (upper - lower), limit_hi=(lim[:, 1] - lower) / (upper - lower),
+        on_grow=on_grow,
     )
     return run_problem(problem, method, opts, seed, check_x0=check_x0)

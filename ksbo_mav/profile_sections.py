@@ -21,7 +21,7 @@ VEHICLE_KEYS = ("name", "autopilot", "description", "frame")
 FRAMES = ("planar-xz", "quad-3d")
 #: Optional keys of a ``[[gains]]`` row besides the GainSpec fields; any other key must be a number present in
 #: every row (a named preset such as ``scg``).
-GAIN_EXTRA_KEYS = ("legacy_name", "legacy_scale", "canonical", "range_min", "range_max")
+GAIN_EXTRA_KEYS = ("legacy_name", "legacy_scale", "canonical")
 MISSION_TYPES = ("figure8-xz", "figure8-ne")
 
 
@@ -67,24 +67,20 @@ class SafetyLimits:
 
 @dataclass(frozen=True)
 class TrustRegion:
-    """``[trust_region]``: how far a trial may move each gain from the baseline (fraction of its box width, and
-    within [baseline / max_ratio, baseline * max_ratio] when ``max_ratio`` is set).
+    """``[trust_region]``: the campaign's first search box around the baseline: each gain at most
+    ``max_step_fraction`` of its box width from the baseline, and within [baseline / max_ratio, baseline * max_ratio]
+    when ``max_ratio`` is set.
 
-    ``widen`` lets a campaign extend a bound its recommendation ends on (``tune --widen``,
-    :mod:`ksbo_mav.campaign.widen`): by ``widen_step`` of the box's width per step, at most ``widen_steps`` steps of
-    ``widen_trials`` optimiser trials each, never past the gain's documented range (``range_min``/``range_max``)."""
+    With ``grow`` (the default) the search box grows from there towards the profile's box (the autopilot's documented
+    ranges) where the optimiser's incumbent sits on an edge, by half the first box's width per move
+    (:mod:`ksbo_mav.opt.acquisition.growing_box`); every trial stays certified (LCB >= 0) and watched by the monitor.
+    ``grow = false`` keeps the first box as the hard limit of every trial."""
 
     max_step_fraction: float = 1.0
     max_ratio: float | None = None
-    widen: bool = False
-    widen_step: float = 0.5
-    widen_trials: int = 6
-    widen_steps: int = 3
+    grow: bool = True
 
     def __post_init__(self) -> None:
-        if not 0 < self.widen_step <= 2 or self.widen_trials < 2 or self.widen_steps < 1:
-            raise InputError(f"widen_step must be in (0, 2], widen_trials >= 2, widen_steps >= 1; got "
-                             f"{self.widen_step:g}, {self.widen_trials}, {self.widen_steps}")
         if not 0 < self.max_step_fraction <= 1:
             raise InputError(f"max_step_fraction must be in (0, 1], got {self.max_step_fraction:g}")
         if self.max_ratio is not None and not self.max_ratio > 1:

@@ -240,10 +240,6 @@ def _gain(row: Any, where: str) -> GainSpec:
         raise InputError(f"profile {where}: gain entry {row!r} is incomplete: {exc}") from None
     if not spec.min < spec.max or not spec.min <= spec.default <= spec.max:
         raise InputError(f"profile {where}: gain {spec.name} needs min < max and default inside")
-    if not float(spec.extra.get("range_min", spec.min)) <= spec.min or \
-            not float(spec.extra.get("range_max", spec.max)) >= spec.max:
-        raise InputError(f"profile {where}: gain {spec.name}: range_min/range_max (the autopilot's documented "
-                         "range) must contain min..max")
     for k, v in spec.extra.items():
         if k not in GAIN_EXTRA_KEYS and (isinstance(v, bool) or not isinstance(v, (int, float))):
             raise InputError(f"profile {where}: gain {spec.name}: unknown key {k!r} "

@@ -94,9 +94,9 @@ def test_safe_bo_ends_on_the_edge_of_a_box_that_excludes_the_optimum(upper, at_e
     result = optimize(fly, [0.15], box, budget=25, method="ksbo", seed=0)
     lines = edge_lines(edge_hits(result.x, box, ["POS_X_P"], limits=profile.bounds[:1]))
     if at_edge:
-        assert lines == [f"POS_X_P = {result.x[0]:.4g} is at the upper bound 0.25 of the search box (the trust region "
-                         "around the baseline; the profile allows 1): the improvement may continue past it; accept "
-                         "these gains and tune again from them (the box is centred on the vehicle's gains), or widen "
-                         "the profile's [trust_region]"]
+        assert lines == [f"POS_X_P = {result.x[0]:.4g} is at the upper bound 0.25 of the search box (it grows from "
+                         "the baseline's trust region; the profile allows 1): the improvement may continue past it; "
+                         "accept these gains and tune again from them (the first box is centred on the vehicle's "
+                         "gains), or fly a longer campaign (--budget)"]
     else:
         assert lines == [] and 0.25 < result.x[0] < 0.6

@@ -148,7 +148,7 @@ def test_the_whole_chain_command_line_over_stored_over_profile_over_default(tmp_
 
 #: A value each setting refuses (the test below checks that every declared setting has one).
 BAD = {"dir": 7, "profile": "", "method": "ksb", "budget": 0, "seed": -1, "prior": "simulated", "n_prior": -3,
-       "early_stop": "yes", "min_trials": 0, "confirm": -1, "widen": "yes", "warm_start": " ", "baseline_every": 2.5,
+       "early_stop": "yes", "min_trials": 0, "confirm": -1, "warm_start": " ", "baseline_every": 2.5,
        "on_drift": "ignore", "rate_hz": 30,
        "validation": "on", "accept": 1, "end": "crash", "onboard_guard": "off", "settle_s": float("nan"),
        "trial_source": "radio", "trial_step": "yes", "wind_mps": -2.0, "sysid": 300, "compid": 0,
@@ -175,6 +175,14 @@ def test_campaign_json_with_a_bad_value_says_the_same_line(tmp_path):
     d = CampaignDir.at(tmp_path / "camp")
     with pytest.raises(InputError, match=r"^budget must be an integer in \[1, inf\), got 0$"):
         CampaignConfig.from_saved({"dir": str(d.root), "budget": 0}, str(d.config))
+
+
+def test_an_older_campaign_json_with_a_retired_setting_still_loads(tmp_path):
+    """``widen`` (a stage after the search, before the search box grew within it) is read past; a typo is not."""
+    d = CampaignDir.at(tmp_path / "camp")
+    assert CampaignConfig.from_saved({"dir": str(d.root), "widen": False}, str(d.config)).budget is None
+    with pytest.raises(InputError, match="unknown campaign setting"):
+        CampaignConfig.from_saved({"dir": str(d.root), "widen_": False}, str(d.config))
 
 
 @pytest.mark.parametrize("bad,line", [

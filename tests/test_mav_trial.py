@@ -64,9 +64,16 @@ def test_preflight_snapshot_and_set_verify(rig):
     with pytest.raises(InputError, match="non-finite"):
         v.params.set_verified("POS_X_P", float("nan"))
     x0 = v.gain_map.from_params(base)
-    for bad in ([np.nan] + [0.1] * 8, [2.0] + list(x0[1:]), [0.9] + list(x0[1:]), list(x0[:8])):
+    for bad in ([np.nan] + [0.1] * 8, [2.0] + list(x0[1:]), list(x0[:8])):
         with pytest.raises(InputError):
-            v.check_trial_gains(np.array(bad), x0)  # NaN, outside box, outside trust region, wrong length
+            v.check_trial_gains(np.array(bad), x0)  # NaN, outside box, wrong length
+    far = np.array([0.9] + list(x0[1:]))  # past the first box (the trust region around the baseline), in the box
+    assert v.check_trial_gains(far, x0)[0] == pytest.approx(0.9)  # the search box may grow there
+    tuning = v.tuning.profile
+    v.tuning.profile = dataclasses.replace(tuning, trust_region=dataclasses.replace(tuning.trust_region, grow=False))
+    with pytest.raises(InputError, match="outside the trust region"):
+        v.check_trial_gains(far, x0)  # a box that does not grow is every trial's hard limit
+    v.tuning.profile = tuning
     v.restore(base)
     assert_baseline(sim)
 

@@ -9,7 +9,7 @@ Key: ``vehicle``, ``seed``; ``tune_args`` (a list: what `tune` gets besides the 
 ``gains`` of parameter values, or the recorded ``best_values`` of a sweep's cell — ``sweep``, the values its key
 must have (``key``) and the names whose values must equal this cell's (``match``, e.g. ["vehicle",
 "sitl_params"]); resolved on the driver's machine, the newest such record), ``export`` (keep in the record the
-files a warm start reads: campaign.json, result.json, journal.jsonl, widen.jsonl), ``warm_start`` (the same kind of
+files a warm start reads: campaign.json, result.json, journal.jsonl), ``warm_start`` (the same kind of
 reference to an exported record: `tune --warm-start` from it), ``change_at`` / ``change_params`` (a SITL condition
 changed mid-campaign), ``analyses`` (ksbo_bench.kinds.campaign_analyses), ``check_params`` (our simulator: read
 the parameters left changed too; SITLs always), ``keep`` (keep the working folder); the vehicle's own values
@@ -45,7 +45,7 @@ N_CANDIDATES = 4
 #: Journal outcomes of a trial the monitor stopped because of the gains (a crash is counted apart).
 GAIN_ABORTS = ("fence", "tilt", "track")
 #: The files of a finished campaign a warm start reads (``export``).
-EXPORTED = ("campaign.json", "result.json", "journal.jsonl", "widen.jsonl")
+EXPORTED = ("campaign.json", "result.json", "journal.jsonl")
 
 
 def check(key: dict[str, Any]) -> None:

@@ -75,7 +75,6 @@ def run(key: dict[str, Any], inputs: dict[str, Any] | None = None) -> dict[str, 
 
 def _run(key: dict[str, Any], inp: dict[str, Any], work: Path) -> dict[str, Any]:
     from ksbo_mav.campaign.mission_rate import check_link
-    from ksbo_mav.campaign.widen import box_profile, documented_range
     from ksbo_mav.campaign.onboard import guard_link_timeout
     from ksbo_mav.errors import KsboError
     from ksbo_mav.mav.guard_script import config_for, figure8_for, new_config_id
@@ -94,8 +93,8 @@ def _run(key: dict[str, Any], inp: dict[str, Any], work: Path) -> dict[str, Any]
     with fresh_vehicle(key, work) as fresh:
         v = Vehicle.connect(fresh.ep, _profile(key), log=log)
         try:
-            if key.get("box", "profile") == "documented":  # the gains are checked against that box alone
-                v.tuning.profile = box_profile(v.profile, documented_range(v.profile))
+            # key "box" = "documented" (the oracles): the profile's box, which is the autopilot's documented ranges
+            # (a trial's gains are checked against it alone: trial_limits)
             check_link(v, log)
             base = {n: v.params.read(n) for n in v.gain_map.param_names}
             guard = None

@@ -17,6 +17,8 @@ def _sim_args(args: list[str]) -> list[str]:
     if "--drag" in a:
         scale, _, rise = a[a.index("--drag") + 1].partition(",")
         out.append(f"drag +{rise}/min of flight" if rise else f"drag ×{float(scale):g}")
+    if "--noise" in a:
+        out.append(f"sensor noise {a[a.index('--noise') + 1]}")
     return out
 
 

@@ -103,7 +103,6 @@ def _headline(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> st
 
 def report(sw, recs: list[dict[str, Any]]) -> list[str]:
     from ksbo_bench.kinds.flights import _profile
-    from ksbo_mav.campaign.widen import documented_range
     from ksbo_mav.profiles import load_profile
 
     cells: list[str] = []
@@ -113,7 +112,7 @@ def report(sw, recs: list[dict[str, Any]]) -> list[str]:
     for rec in recs:
         prof = load_profile(_profile(rec["key"]))
         ranges = {}
-        for g, (lo, hi) in zip(prof.gains, documented_range(prof)):  # by either generation's name (ArduPilot)
+        for g, (lo, hi) in zip(prof.gains, prof.bounds):  # by either generation's name (ArduPilot)
             for name in (g.name, g.extra.get("legacy_name")):
                 if name:
                     ranges[name] = (float(lo), float(hi))
@@ -138,28 +137,56 @@ def _oracle_P(condition_name: str) -> tuple[str, float] | None:
     return (best["set"], best["P"]) if best else None
 
 
+def _refly_means(rec: dict[str, Any]) -> tuple[dict[str, float], dict[str, float]]:
+    """({role: mean re-flown lap RMS}, {role: mean re-flown roughness}) of a campaign record."""
+    res = rec["result"]
+
+    def means(d: dict[str, list]) -> dict[str, float]:
+        return {k: statistics.mean([x for x in v if x is not None] or [float("nan")]) for k, v in d.items()}
+
+    return means(res.get("reflown", {})), means(res.get("reflown_rough", {}))
+
+
+def _where(rec: dict[str, Any]) -> tuple:
+    """The vehicle and condition a campaign record flew in (its long campaign is the one with the same)."""
+    k = rec["key"]
+    return k.get("vehicle"), k.get("condition", ""), repr(sorted((k.get("sitl_params") or {}).items()))
+
+
 def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
-    """The default campaign's cells: flights, safety, the re-flown baseline and recommendation (lap RMS,
-    roughness), the recommendation's score against the re-flown baseline and its share of the oracle's gain."""
-    out = ["| campaign | seed | flights | aborted | crashed | P < 0 | baseline RMS (m) / roughness | "
-           "recommendation RMS (m) / roughness | P of the recommendation | share of the oracle's gain |",
-           "|" + "---|" * 10]
-    oracle = None
-    for rec in recs:
-        res, saf = rec["result"], rec.get("safety", {})
-        rms, rough = res.get("reflown", {}), res.get("reflown_rough", {})
-        m = {k: statistics.mean([x for x in v if x is not None] or [float("nan")]) for k, v in rms.items()}
-        g = {k: statistics.mean([x for x in v if x is not None] or [float("nan")]) for k, v in rough.items()}
-        P = _score(m["rec"], m["baseline"], g["rec"], g["baseline"]) if "rec" in g and "baseline" in g else None
-        oracle = oracle or _oracle_P(rec["key"].get("condition", ""))
-        share = f"{(P - 0.5) / (oracle[1] - 0.5):.0%}" if P is not None and oracle and oracle[1] > 0.5 else "–"
-        out.append(f"| {rec['key'].get('label', 'default')} | {rec['key'].get('seed')} | "
-                   f"{rec['flights']['total']} | {saf.get('aborted')} | "
+    """The default campaign's cells against the long campaign flown on the same vehicle in the same condition (label
+    long, the oracle by search): flights, safety, the re-flown baseline and recommendation (lap RMS, roughness), the
+    recommendation's cut and its share of the long campaign's, its score, and the grid oracle's P where one was
+    flown (oracle-copter3d)."""
+    out = ["| vehicle | campaign | seed | flights | aborted | crashed | P < 0 | baseline RMS (m) / roughness | "
+           "recommendation RMS (m) / roughness | cut | share of the long campaign's cut | P |",
+           "|" + "---|" * 12]
+    longs = {_where(r): r for r in recs if r["key"].get("label") == "long"}
+    grid = None
+    for rec in sorted(recs, key=lambda r: (_where(r), r["key"].get("label") == "long", r["key"].get("seed", 0))):
+        saf = rec.get("safety", {})
+        m, g = _refly_means(rec)
+        P = _score(m["rec"], m["baseline"], g.get("rec"), g.get("baseline")) if "rec" in m else None
+        cut = 1.0 - m["rec"] / m["baseline"] if "rec" in m else None
+        ref = longs.get(_where(rec))
+        share = "–"
+        if rec["result"].get("share_of_long") is not None:  # the long campaign's gains re-flown beside these
+            share = f"{rec['result']['share_of_long']:.0%}"
+        elif ref is not None and ref is not rec and cut is not None:
+            lm, _ = _refly_means(ref)
+            share = f"{cut / (1.0 - lm['rec'] / lm['baseline']):.0%}"
+        grid = grid or (_oracle_P(rec["key"]["condition"]) if rec["key"].get("condition") else None)
+        out.append(f"| {vehicle(rec['key'])} {condition(rec['key'])} | {rec['key'].get('label', 'default')} | "
+                   f"{rec['key'].get('seed')} | {rec['flights']['total']} | {saf.get('aborted')} | "
                    f"{saf.get('crashed')} | {saf.get('unsafe')} | {m['baseline']:.3f} / {g.get('baseline', 0):.2f} | "
-                   f"{m['rec']:.3f} / {g.get('rec', 0):.2f} | {'–' if P is None else f'{P:.3f}'} | {share} |")
+                   f"{m['rec']:.3f} / {g.get('rec', 0):.2f} | {'–' if cut is None else f'{cut:.0%}'} | {share} | "
+                   f"{'–' if P is None else f'{P:.3f}'} |")
     out = ["\n".join(out)]
-    if oracle:
-        out.append(f"The oracle (oracle-copter3d, same condition): {oracle[0]}, P {oracle[1]:.3f}. Share of its gain: "
-                   "(P − 0.5) / (P_oracle − 0.5), P from the re-flown means against this cell's re-flown baseline "
-                   "(the score with the smoothness term); the baseline scores 0.5.")
+    out.append("Cut: 1 − the recommendation's mean re-flown lap RMS / the baseline's, both re-flown in turn on the "
+               "vehicle the campaign left hovering; share: that cut over the long campaign's (label long, the same "
+               "vehicle and condition), the oracle by search: its recommendation re-flown in turn with the two where "
+               "the cell names it as reference, else its own re-flights. P: the score with the smoothness term from "
+               "the re-flown means (the baseline scores 0.5).")
+    if grid:
+        out.append(f"The grid oracle (oracle-copter3d, the same condition, two gains): {grid[0]}, P {grid[1]:.3f}.")
     return out

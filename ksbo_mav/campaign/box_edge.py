@@ -1,10 +1,10 @@
 """Where the recommendation touches the edge of the search box, said in plain words.
 
-A safe-BO campaign only searches its box (the profile's gain limits intersected with the trust region around the
-baseline, :func:`ksbo_mav.mav.gains.trust_region`). When the recommended value of a gain sits on an edge of that
-box, the best gains may lie past it, and the user should know: the campaign's improvement was capped by the box,
-not by the vehicle. This module is pure (numpy only) and unit-agnostic: give values, bounds and limits in one
-unit (the vehicle's, to print what the vehicle shows).
+A safe-BO campaign only searches its box: the profile's gain limits intersected with the trust region around the
+baseline (:func:`ksbo_mav.mav.gains.trust_region`) at first, grown where the best flights reached an edge. When the
+recommended value of a gain sits on an edge of that box, the best gains may lie past it, and the user should know:
+the campaign's improvement was capped by the box, not by the vehicle. This module is pure (numpy only) and
+unit-agnostic: give values, bounds and limits in one unit (the vehicle's, to print what the vehicle shows).
 """
 
 from __future__ import annotations
@@ -52,9 +52,9 @@ class EdgeHit:
                     f"the gain should go further, check the autopilot's documented range and change the profile's "
                     f"[[gains]] {'min' if self.side == 'lower' else 'max'}")
         beyond = f"; the profile allows {self.limit:.4g}" if self.limit is not None else ""
-        return (f"{head} (the trust region around the baseline{beyond}){support}: the improvement may continue past "
-                "it; accept these gains and tune again from them (the box is centred on the vehicle's gains), or "
-                "widen the profile's [trust_region]")
+        return (f"{head} (it grows from the baseline's trust region{beyond}){support}: the improvement may continue "
+                "past it; accept these gains and tune again from them (the first box is centred on the vehicle's "
+                "gains), or fly a longer campaign (--budget)")
 
 
 def edge_hits(x: Sequence[float], bounds: np.ndarray, names: Sequence[str], *, tol: float = TOL,

@@ -42,7 +42,6 @@ class CampaignConfig:
     prior: str = _default("prior")
     n_prior: int = _default("n_prior")  # 0 = default for the prior kind (prior_size)
     confirm: int = _default("confirm")
-    widen: bool = _default("widen")
     warm_start: str | None = _default("warm_start")
     baseline_every: int = _default("baseline_every")
     on_drift: str = _default("on_drift")
@@ -88,6 +87,7 @@ class CampaignConfig:
         if not isinstance(saved, dict):
             raise InputError(f"{where}: 'config' is not an object")
         known = {f.name for f in dataclasses.fields(cls)}
+        saved = {k: v for k, v in saved.items() if k not in RETIRED}
         unknown = sorted(set(saved) - known)
         if unknown:
             raise InputError(f"{where}: unknown campaign setting(s) {', '.join(unknown)}")
@@ -178,6 +178,11 @@ def prior_size(cfg: CampaignConfig, kind: str) -> int:
     """Points of a ``kind`` prior: ``cfg.n_prior``, or (0) the kind's :data:`PRIOR_SIZES` default (0 for none)."""
     return resolve(command_line={"n_prior": cfg.n_prior} if cfg.n_prior else {},
                    default={"n_prior": PRIOR_SIZES.get(kind, 0)})["n_prior"]
+
+
+#: Settings older campaigns stored that no longer exist, read past: ``widen`` (a stage after the search that moved
+#: the box's bounds; the search box now grows within the search, :mod:`ksbo_mav.opt.acquisition.growing_box`).
+RETIRED = ("widen",)
 
 
 def stop_options(cfg: CampaignConfig, profile: Any) -> dict[str, Any]:

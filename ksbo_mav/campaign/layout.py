@@ -9,7 +9,6 @@ line); it reads and writes ``campaign.json`` itself.
     link.json                the link check's figures: the campaign's start and each resume
     prior.json               the kernel-selection prior (simulator episodes), reused on resume
     journal.jsonl            one line per flown trial, appended and fsynced before the optimiser sees the value
-    widen.jsonl              one line per widening of the search box, before a trial flies in it
     drift.json               the drift test's verdict, once it fired
     trials/trial_NNN.*       two-way tlog + JSON record of every trial
     validation.jsonl         one line per validation flight (never the optimiser's), appended and fsynced
@@ -76,10 +75,6 @@ class CampaignDir:
     @property
     def journal(self) -> Path:
         return self.root / "journal.jsonl"
-
-    @property
-    def widen_log(self) -> Path:
-        return self.root / "widen.jsonl"
 
     @property
     def drift(self) -> Path:

@@ -44,7 +44,6 @@ from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.campaign.validation_session import check_validation, validate_after_tune
 from ksbo_mav.campaign.warm_start import Earlier, warm_search
 from ksbo_mav.campaign.wind_preflight import apply_wind_plan
-from ksbo_mav.campaign.widen import widen_search
 from ksbo_mav.errors import CampaignPaused, InputError, KsboError, LinkLost
 from ksbo_mav.mav.approach import check_moving_start
 from ksbo_mav.mav.gains import opt_bounds
@@ -63,7 +62,6 @@ class Policy:
     prior: str  # the prior's kind: "sim", "local" or "none"
     prior_on_ground: bool  # simulator episodes, computed before takeoff: no hover spent waiting for them
     warm: bool  # start from an earlier campaign (its flights are the prior)
-    widen: bool  # move a search-box bound the recommendation ends on
 
 
 class Campaign:
@@ -183,8 +181,7 @@ class Campaign:
         if cfg.prior == "auto" and journal.of("prior"):
             kind = "local"  # resumed from when "auto" meant a flown prior for this profile: it keeps it
         warm = bool(cfg.warm_start)
-        return Policy(prior=kind, prior_on_ground=kind == "sim" and not warm, warm=warm,
-                      widen=cfg.widen or v.profile.trust_region.widen)
+        return Policy(prior=kind, prior_on_ground=kind == "sim" and not warm, warm=warm)
 
     def _fly(self, v: Vehicle) -> CampaignSummary:
         from threadpoolctl import threadpool_limits
@@ -207,18 +204,16 @@ class Campaign:
 
     def _search(self, v: Vehicle, trials: TrialLoop, policy: Policy, x0: np.ndarray, bounds: np.ndarray,
                 prior: Any) -> tuple[Any, Any]:
-        """The optimiser's trials (a flown prior first), and a widened box's when the policy says so."""
+        """The optimiser's trials (a flown prior first; from an earlier campaign's with a warm start)."""
         cfg, log = self.cfg, self.log
         if policy.warm:
-            prior, result, unused, bounds = warm_search(trials, cfg, v, x0, log)
+            prior, result, unused = warm_search(trials, cfg, v, x0, log)
         else:
             if not policy.prior_on_ground:
                 prior = campaign_prior(policy.prior, cfg, self.dir, v.profile, x0, bounds,
                                        [e.P for e in trials.journal.of("prior")], lambda x: trials.fly(x, "prior").P,
                                        log)
             result, unused = search(trials, cfg, x0, bounds, prior, self.resume, log)
-        if policy.widen:
-            result, unused, bounds = widen_search(trials, cfg, v, self.dir, bounds, prior, result, unused, log)
         return result, unused
 
     def _end(self, v: Vehicle, trials: TrialLoop, result: Any, unused: Any, x0: np.ndarray, baseline_trial: Any,

@@ -117,8 +117,6 @@ SETTINGS: tuple[Setting, ...] = (
             "prior data: sim (simulator episodes), local (flown around the baseline), none; auto: the profile's"),
     Setting("n_prior", _whole(0), 0, "--n-prior", "prior size (0: 36 simulator episodes, 8 flown trials)"),
     Setting("confirm", _whole(0), 1, "--confirm", "re-fly the recommendation this many times"),
-    Setting("widen", BOOL, False, "--widen",
-            "move a search-box bound the recommendation ends on out stepwise, within the gain's range"),
     Setting("warm_start", Unset(Text()), None, "--warm-start",
             "a finished campaign's directory to start from: its flights are the prior"),
     Setting("baseline_every", _whole(0), 7, "--baseline-every",

@@ -73,6 +73,9 @@ class CampaignSummary:
     #: The validation flights' state: "pending" (the tune's first result, written before them), "complete",
     #: "incomplete" (``reason``, and the ``command`` that flies the rest) or "skipped" (``reason``).
     validation: dict[str, Any] | None = None
+    #: The search box where it grew past the first one: ``bounds`` (d, 2) at the end and each ``growth`` (trial,
+    #: dim, name, side, old, new); None: it never grew.
+    box: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -113,4 +116,10 @@ def summarize(journal: Journal, result: Any, *, baseline_x: np.ndarray, base: di
         method=method, orders=list(result.orders) if result.orders else None, wall_s=wall_s,
         dir=str(d.root), ended=ended,
         search_end=search_end((getattr(result, "info", None) or {}).get("stop"), opt[0] if opt else None,
-                              len(confirms)))
+                              len(confirms)),
+        box=_grown((getattr(result, "info", None) or {}).get("box")))
+
+
+def _grown(box: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The optimiser's search-box record when the box grew, else None."""
+    return box if box and box.get("growth") else None

@@ -23,8 +23,12 @@ import numpy as np
 
 from ksbo_mav.campaign.journal import Journal
 from ksbo_mav.campaign.layout import CampaignDir
-from ksbo_mav.campaign.widen import STAGE_OPTIONS, box_profile, campaign_data, read_steps
 from ksbo_mav.errors import InputError
+
+#: Optimiser options of a warm start (over the campaign's): at most its last trial re-flies a candidate (ksbo-adaptive's
+#: default re-flies its last 9: the earlier flights already decided between the well-flown candidates), and no trust
+#: region around the incumbent (its initial 0.1 of the box would hold the search at the earlier recommendation).
+STAGE_OPTIONS = {"refly_last": 1, "trust_region": False}
 
 #: A re-flight of the earlier recommendation whose lap RMS differs from the earlier confirmation's by more than
 #: this fraction (or its P by more than this) says the vehicle changed.
@@ -39,8 +43,8 @@ class Earlier:
         self.settings = self.d.read_settings()
         self.result = self.d.read_result()
         self.journal = Journal(self.d.journal)
-        steps = read_steps(self.d)
-        self.bounds = np.asarray(steps[-1].bounds if steps else self.settings["bounds"], dtype=float)
+        grown = self.result.get("box") or {}
+        self.bounds = np.asarray(grown.get("bounds") or self.settings["bounds"], dtype=float)
         self.x = np.asarray(self.result["best"]["x"], dtype=float)
         opt = self.journal.of("opt")
         self.rms_ref = opt[0].rms if opt else None
@@ -69,9 +73,23 @@ class Earlier:
         return X, 1.0 - (1.0 - y) * ratio
 
 
+def campaign_data(opt: list[Any], prior: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """(X, y): the ``prior`` and the trials ``opt`` (journal entries). A trial the monitor aborted or that crashed
+    enters with P at most 0: the optimiser's prior has no outcomes, and what it must learn from one is that the gains
+    were not safe there."""
+    X = [np.asarray(prior[0], dtype=float)] if prior is not None else []
+    y = [np.asarray(prior[1], dtype=float)] if prior is not None else []
+    if opt:
+        X.append(np.array([e.x for e in opt], dtype=float))
+        y.append(np.array([e.P if e.outcome == "ok" else min(e.P, 0.0) for e in opt], dtype=float))
+    dim = len(opt[0].x) if opt else (np.asarray(prior[0]).shape[1] if prior is not None else 0)
+    return (np.vstack(X) if X else np.zeros((0, dim))), (np.concatenate(y) if y else np.zeros(0))
+
+
 def warm_search(trials: Any, cfg: Any, vehicle: Any, x0: np.ndarray, log: Callable[[str], None]
-                ) -> tuple[Any, Any, list, np.ndarray]:
-    """(prior, optimiser result, unused journal entries, box) of a warm-started campaign (the baseline is flown)."""
+                ) -> tuple[Any, Any, list]:
+    """(prior, optimiser result, unused journal entries) of a warm-started campaign (the baseline is flown): the
+    search starts in the earlier campaign's final box (grown further where the profile says so)."""
     from ksbo_mav.campaign.search import search_box
 
     earlier = Earlier(cfg.warm_start)
@@ -79,7 +97,6 @@ def warm_search(trials: Any, cfg: Any, vehicle: Any, x0: np.ndarray, log: Callab
     if np.any(x0 < box[:, 0] - 1e-9) or np.any(x0 > box[:, 1] + 1e-9):
         raise InputError(f"--warm-start {cfg.warm_start}: the vehicle's gains lie outside that campaign's search "
                          "box; restore its baseline (ksbo-mav restore) or start a new campaign")
-    vehicle.tuning.profile = box_profile(vehicle.profile, box)
     opt = trials.journal.of("opt")
     ref = opt[0].rms
     X, y = earlier.data(ref)
@@ -94,7 +111,7 @@ def warm_search(trials: Any, cfg: Any, vehicle: Any, x0: np.ndarray, log: Callab
     if result is None:
         raise InputError(f"the earlier recommendation of {cfg.warm_start} flew unsafe now: the vehicle changed too "
                          "much for a warm start; start a new campaign (baseline restored)")
-    return prior, result, unused, box
+    return prior, result, unused
 
 
 def say_condition(earlier: Earlier, again: Any, log: Callable[[str], None]) -> None:

@@ -12,7 +12,7 @@ from ksbo_mav.errors import InputError
 from ksbo_mav.opt import METHODS
 
 #: Options that define a campaign; on --resume, one given with a different value than stored is refused.
-_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "widen", "rate_hz", "warm_start",
+_DEFINING = ("profile", "method", "budget", "seed", "prior", "n_prior", "confirm", "rate_hz", "warm_start",
              "early_stop", "min_trials", "trial_step", "wind_mps")
 #: The option groups of `tune --help`, in the order a pilot needs them (connection first: always needed).
 GROUPS = ("connection (exactly one)", "campaign directory", "profile and budget", "end of the campaign",
@@ -79,8 +79,6 @@ def add_parser(subparsers) -> None:
     g.add_argument("--confirm", type=int, metavar="N", help=_help("confirm"))
     g.add_argument("--warm-start", metavar="EARLIER", help=_help("warm_start", "; --budget counts from the "
                                                                                 "baseline on"))
-    g.add_argument("--widen", action="store_const", const=True,
-                   help=_help("widen", " (as the profile's [trust_region] widen = true)"))
     g = p.add_argument_group(GROUPS[5])
     g.add_argument("--trial-source", dest="trial_source", metavar="{onboard,ground}",
                    help=_help("trial_source"))

@@ -31,9 +31,18 @@ def trust_region(profile: Profile, baseline: np.ndarray) -> tuple[np.ndarray, np
 
 
 def opt_bounds(profile: Profile, baseline: np.ndarray) -> np.ndarray:
-    """(d, 2) the optimiser's search box: :func:`trust_region` around ``baseline`` as [lo, hi] rows."""
+    """(d, 2) the optimiser's first search box: :func:`trust_region` around ``baseline`` as [lo, hi] rows."""
     lo, hi = trust_region(profile, baseline)
     return np.column_stack([lo, hi])
+
+
+def trial_limits(profile: Profile, baseline: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where a trial's gains may go: the profile's box when its search box grows (``[trust_region] grow``), else
+    the first box (:func:`trust_region`)."""
+    if profile.trust_region.grow:
+        b = profile.bounds
+        return b[:, 0].copy(), b[:, 1].copy()
+    return trust_region(profile, baseline)
 
 
 class GainService:
@@ -45,7 +54,8 @@ class GainService:
         self.params, self.profile, self.gain_map = params, profile, gain_map
 
     def check_trial(self, x: np.ndarray, baseline: np.ndarray) -> np.ndarray:
-        """Absolute box of the profile and the trust region around the baseline; InputError otherwise."""
+        """Absolute box of the profile and, unless the search box grows, the trust region around the baseline
+        (:func:`trial_limits`); InputError otherwise."""
         b = self.profile.bounds
         width = b[:, 1] - b[:, 0]
         x = np.asarray(x, dtype=float)
@@ -55,7 +65,7 @@ class GainService:
             x = np.where((x > b[:, 1]) & (x <= b[:, 1] + tol), b[:, 1], x)
             x = np.where((x < b[:, 0]) & (x >= b[:, 0] - tol), b[:, 0], x)
         x = self.profile.check_gains(x)
-        lo, hi = trust_region(self.profile, baseline)
+        lo, hi = trial_limits(self.profile, baseline)
         tol = 1e-9 * width
         far = (x < lo - tol) | (x > hi + tol)
         if np.any(far):

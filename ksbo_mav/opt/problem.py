@@ -36,6 +36,10 @@ class Problem:
         callback: ``callback(i, x, y) -> bool | None`` after each call (physical x); truthy stops the run
             (sets ``stopped``; ``remaining`` is then 0).
         early_stop: the stopping rule's settings (opt.methods.stopping), or None: spend the budget.
+        limit_lo, limit_hi: (d,) how far a growing search box may go (unit cube: ≤ 0 and ≥ 1;
+            opt.acquisition.growing_box); None: the box is the cube.
+        on_grow: ``on_grow(growth)`` as the box grows, one call per edge moved (``growth`` as in
+            ``result.info["box"]["growth"]``: trial, dim, side, old, new in physical units).
     """
 
     fun: Callable[[np.ndarray], float]
@@ -48,6 +52,9 @@ class Problem:
     prior_y: np.ndarray = field(default_factory=lambda: np.zeros(0))
     callback: Callable[[int, np.ndarray, float], bool | None] | None = None
     early_stop: dict[str, Any] | None = None
+    limit_lo: np.ndarray | None = None
+    limit_hi: np.ndarray | None = None
+    on_grow: Callable[[dict[str, Any]], None] | None = None
     X: list[np.ndarray] = field(default_factory=list, init=False)
     y: list[float] = field(default_factory=list, init=False)
     outcomes: list[Outcome] = field(default_factory=list, init=False)
@@ -61,11 +68,18 @@ class Problem:
         self.x0 = np.asarray(self.x0, dtype=float)
         if self.prior_X.size == 0:
             self.prior_X = np.zeros((0, self.dim))
+        self.limit_lo = np.zeros(self.dim) if self.limit_lo is None else np.asarray(self.limit_lo, dtype=float)
+        self.limit_hi = np.ones(self.dim) if self.limit_hi is None else np.asarray(self.limit_hi, dtype=float)
         self._t_last = time.perf_counter()
 
     @property
     def dim(self) -> int:
         return int(self.lower.shape[0])
+
+    @property
+    def can_grow(self) -> bool:
+        """Whether the search box may grow past the unit cube (limits wider than the caller's bounds)."""
+        return bool(np.any(self.limit_lo < 0.0) or np.any(self.limit_hi > 1.0))
 
     @property
     def n_evals(self) -> int:
@@ -79,6 +93,15 @@ class Problem:
     def to_physical(self, u: np.ndarray) -> np.ndarray:
         """(…, d) unit-cube points → physical units."""
         return self.lower + np.asarray(u, dtype=float) * (self.upper - self.lower)
+
+    def to_physical_1(self, i: int, u: float) -> float:
+        """Unit-cube coordinate ``u`` of dimension ``i`` → physical units."""
+        return float(self.lower[i] + u * (self.upper[i] - self.lower[i]))
+
+    def growth_record(self, g: Any) -> dict[str, Any]:
+        """One :class:`~ksbo_mav.opt.acquisition.growing_box.Growth` in physical units."""
+        return {"trial": g.trial, "dim": g.dim, "side": g.side, "old": self.to_physical_1(g.dim, g.old),
+                "new": self.to_physical_1(g.dim, g.new)}
 
     def to_unit(self, x: np.ndarray) -> np.ndarray:
         """(…, d) physical points → unit cube."""
@@ -104,7 +127,7 @@ class Problem:
             raise BudgetExhausted(f"budget of {self.budget} evaluations already used")
         start = time.perf_counter()
         self.seconds.append(start - self._t_last)
-        u = np.clip(np.asarray(u, dtype=float).reshape(self.dim), 0.0, 1.0)
+        u = np.clip(np.asarray(u, dtype=float).reshape(self.dim), self.limit_lo, self.limit_hi)
         x = self.to_physical(u)
         i = len(self.y)
         try:

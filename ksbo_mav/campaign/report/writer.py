@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +21,6 @@ from ksbo_mav.campaign.box_edge import EdgeHit, edge_hits
 from ksbo_mav.campaign.layout import CampaignDir
 from ksbo_mav.campaign.report.plots import plot_convergence, plot_gains, plot_safety
 from ksbo_mav.campaign.report.rows import CampaignRecord, read_campaign, trajectory
-from ksbo_mav.campaign.widen import Move, documented_range, read_steps
 
 #: How many of the best flown trials back up (or not) a box-edge note.
 NEAR_BEST = 5
@@ -45,18 +45,31 @@ def campaign_profile(settings: dict[str, Any]) -> Any | None:
         return None
 
 
-def widened_record(d: CampaignDir, rec: CampaignRecord, profile: Any
-                   ) -> tuple[CampaignRecord, np.ndarray | None, list[Move]]:
-    """The campaign record ``rec`` with its final (widened) box, the limits a bound may reach in
-    the vehicle's units (the documented range once the campaign widened, else the profile's box; None without the
-    profile) and every bound that moved."""
-    steps = read_steps(d)
+@dataclass(frozen=True)
+class BoxGrowth:
+    """One growth of the search box, as the console said it (a line of the report's box notes)."""
+
+    text: str
+
+    def message(self) -> str:
+        return self.text
+
+
+def grown_record(rec: CampaignRecord, result: dict[str, Any] | None, profile: Any
+                 ) -> tuple[CampaignRecord, np.ndarray | None, list[BoxGrowth]]:
+    """The campaign record ``rec`` with its final search box (result.json's ``box`` where it grew), the limits it
+    could grow to in the vehicle's units (the profile's box; None without the profile), and each growth."""
+    from ksbo_mav.campaign.search import growth_message
+
     fits = profile is not None and profile.dim == len(rec.names)
-    if not steps:
-        return rec, (profile.bounds / rec.scale[:, None] if fits else None), []
-    rec = dataclasses.replace(rec, settings={**rec.settings, "bounds": steps[-1].bounds})
-    return rec, (documented_range(profile) / rec.scale[:, None] if fits else None), \
-        [m for s in steps for m in s.moves]
+    limits = profile.bounds / rec.scale[:, None] if fits else None
+    box = (result or {}).get("box") or {}
+    if not box.get("bounds"):
+        return rec, limits, []
+    rec = dataclasses.replace(rec, settings={**rec.settings, "bounds": box["bounds"]})
+    lines = [BoxGrowth("search box " + growth_message(g, float(profile.bounds[g["dim"], int(g["side"] == "upper")])))
+             for g in box.get("growth", []) if fits]
+    return rec, limits, lines
 
 
 def box_edges(rec: CampaignRecord, best_x: Any, profile: Any | None, limits: Any = None) -> list[EdgeHit]:
@@ -78,7 +91,7 @@ def box_edge_lines(d: CampaignDir | str | Path, result: dict[str, Any] | None = 
         return []
     rec = read_campaign(d, rms=False)
     profile = campaign_profile(rec.settings)
-    rec, limits, moves = widened_record(d, rec, profile)
+    rec, limits, moves = grown_record(rec, result, profile)
     return [m.message() for m in moves] + [h.message() for h in box_edges(rec, result["best"]["x"], profile, limits)]
 
 
@@ -122,13 +135,13 @@ def _trajectory_plot(rec: CampaignRecord, path: Path) -> str | None:
                                  kind=kind, scored=scored_span(info)))
 
 
-def _plot_inputs(d: CampaignDir, best_x: Any, limits: Any, hits: list[EdgeHit]) -> str:
+def _plot_inputs(d: CampaignDir, best_x: Any, limits: Any, hits: list[EdgeHit], box: Any = None) -> str:
     """A digest of everything the plots are drawn from: the settings, the journal (which names every trial record
-    and tlog, each written once), the widening steps, the recommendation, the limits and the edge hits."""
+    and tlog, each written once), the final search box, the recommendation, the limits and the edge hits."""
     digest = hashlib.sha256()
-    for path in (d.config, d.journal, d.widen_log):
+    for path in (d.config, d.journal):
         digest.update(path.read_bytes() if path.is_file() else b"-")
-    digest.update(repr((best_x, None if limits is None else np.asarray(limits).tolist(), hits)).encode())
+    digest.update(repr((best_x, None if limits is None else np.asarray(limits).tolist(), hits, box)).encode())
     return digest.hexdigest()
 
 
@@ -139,7 +152,7 @@ def _draw(d: CampaignDir, rec: CampaignRecord, best_x: Any, limits: Any, hits: l
     validation flights, which change none of them) unless ``fresh``."""
     from ksbo_mav.campaign.report.conditions import plot_conditions
 
-    key, stamp = _plot_inputs(d, best_x, limits, hits), d.report / "plots.json"
+    key, stamp = _plot_inputs(d, best_x, limits, hits, rec.settings.get("bounds")), d.report / "plots.json"
     if not fresh:
         try:
             kept = json.loads(stamp.read_text())
@@ -197,7 +210,7 @@ def write_report(d: CampaignDir | str | Path, profile: Any = None, result: dict[
             pass
     profile = profile if profile is not None else campaign_profile(rec.settings)
     best_x = ((result or {}).get("best") or {}).get("x")  # none when the campaign recommended nothing
-    rec, limits, moves = widened_record(d, rec, profile)
+    rec, limits, moves = grown_record(rec, result, profile)
     hits = box_edges(rec, best_x, profile, limits) if best_x is not None else []
     if draw:
         paths = _draw(d, rec, best_x, limits, hits, fresh)

@@ -32,8 +32,11 @@ def local_gaussian(
     rng: np.random.Generator,
     free: np.ndarray | None = None,
     weights: np.ndarray | None = None,
+    lo: np.ndarray | float = 0.0,
+    hi: np.ndarray | float = 1.0,
 ) -> np.ndarray:
-    """Gaussian samples around ``centers`` (k, d), clipped to the cube; returns (n, d).
+    """Gaussian samples around ``centers`` (k, d), clipped to the box ``lo``..``hi`` (default the cube); returns
+    (n, d).
 
     Each sample picks a centre (by ``weights``, default uniform) and a scale from ``scales`` uniformly; only the
     dimensions marked in ``free`` (d,) bool are perturbed (the rest stay at the centre's value). Half of the
@@ -55,7 +58,7 @@ def local_gaussian(
         keep = rng.random((int(sparse.sum()), d)) < min(1.0, 3.0 / n_free)
         step[sparse] *= keep
     step[:, ~free] = 0.0
-    return np.clip(centers[idx] + step, 0.0, 1.0)
+    return np.clip(centers[idx] + step, lo, hi)
 
 
 def refine(
@@ -66,6 +69,8 @@ def refine(
     samples: int = 32,
     scale: float = 0.05,
     free: np.ndarray | None = None,
+    lo: np.ndarray | float = 0.0,
+    hi: np.ndarray | float = 1.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Batched constrained local search: maximise a score from each start, never leaving the feasible set.
 
@@ -76,6 +81,7 @@ def refine(
         samples: perturbations per start and round.
         scale: initial step standard deviation (unit cube).
         free: (d,) bool dimensions that may move.
+        lo, hi: the box the moves stay in (default the cube).
 
     Returns:
         (k, d) refined points and their (k,) scores; a start is returned unchanged if nothing better and feasible
@@ -92,7 +98,7 @@ def refine(
         s = scale * 0.5**r
         step = rng.standard_normal((k, samples, d)) * s
         step[:, :, ~free] = 0.0
-        trial = np.clip(X[:, None, :] + step, 0.0, 1.0).reshape(k * samples, d)
+        trial = np.clip(X[:, None, :] + step, lo, hi).reshape(k * samples, d)
         t_score, t_ok = evaluate(trial)
         t_score = np.where(np.asarray(t_ok, bool), t_score, -np.inf).reshape(k, samples)
         j = np.argmax(t_score, axis=1)

@@ -20,7 +20,8 @@ CONNECT_RADIUS = 0.1
 class SearchRegion:
     """Candidate generation in the subspace ``free`` (d,) bool through ``x0`` (d,): ``n_local`` Gaussian points
     at ``local_scales`` around up to ``n_anchors`` anchors, plus ``n_global`` Sobol points when ``explore_from``
-    is "all" ("x0": the region grows from the start; no global points)."""
+    is "all" ("x0": the region grows from the start; no global points). Local points stay in the box ``lo``..``hi``
+    (the cube by default; a growing search box moves them: opt.acquisition.growing_box)."""
 
     free: np.ndarray
     x0: np.ndarray
@@ -29,6 +30,8 @@ class SearchRegion:
     local_scales: tuple[float, ...] = (0.02, 0.05, 0.1, 0.2)
     n_global: int = 256
     explore_from: str = "x0"
+    lo: np.ndarray | float = 0.0
+    hi: np.ndarray | float = 1.0
 
     def anchors(self, obs: Observations, lcb_d: np.ndarray, ucb_d: np.ndarray, rng: np.random.Generator,
                 center: np.ndarray | None = None) -> np.ndarray:
@@ -69,7 +72,7 @@ class SearchRegion:
 
     def candidates(self, anchors: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """(m, d) candidate set: local clouds around ``anchors`` (k, d) plus global Sobol (moved dims only)."""
-        local = local_gaussian(anchors, self.n_local, self.local_scales, rng, free=self.free)
+        local = local_gaussian(anchors, self.n_local, self.local_scales, rng, free=self.free, lo=self.lo, hi=self.hi)
         glob = sobol(self.n_global if self.explore_from == "all" else 0, self.x0.size, rng)
         C = np.vstack([local, glob])
         # Dimensions outside the search space stay at the start value (they are not in the kernel, so the model
@@ -77,11 +80,14 @@ class SearchRegion:
         C[:, ~self.free] = self.x0[~self.free]
         return C
 
-    def incumbent(self, obs: Observations, model: SafetyModel, cert: Certificate) -> np.ndarray:
+    def incumbent(self, obs: Observations, model: SafetyModel, cert: Certificate, flown: bool = False) -> np.ndarray:
         """(d,) best completed safe trial by ``model``'s posterior mean (the trust region's centre; x0 before any),
         outside the failures' grown exclusion balls: a centre inside a ball larger than the trust region leaves no
-        candidate, and the run would fall back to re-flying one point for the rest of its budget."""
+        candidate, and the run would fall back to re-flying one point for the rest of its budget. ``flown``: among
+        this run's evaluations only (the prior's points never moved the vehicle: a growing box follows flights)."""
         ok = obs.safe_complete()
+        if flown:
+            ok &= np.arange(obs.n) >= obs.n_prior
         if ok.any() and obs.any_failed:
             ok[ok] = ~cert.exclusion.in_grown_ball(obs, obs.X[ok])
         if not ok.any():

@@ -11,6 +11,7 @@ import numpy as np
 
 from ksbo_mav.opt.acquisition.certificate import Certificate
 from ksbo_mav.opt.acquisition.exclusion import Exclusion
+from ksbo_mav.opt.acquisition.growing_box import GrowingBox
 from ksbo_mav.opt.acquisition.region import SearchRegion
 from ksbo_mav.opt.acquisition.trust_region import TrustRegion
 from ksbo_mav.opt.method_config import AdaptiveConfig, SafeBOConfig, part
@@ -93,7 +94,8 @@ def safe_bo_for(
     """The :class:`SafeBO` that ``ksbo``, ``standard`` and ``safeopt`` run on ``problem``: the main GP with
     additive kernel ``orders`` (those above ``problem.dim``, or above the number of ``dims``, dropped) on the
     active dimensions ``dims`` (None: all), the local SE-ARD safety GP when ``opts.safety_kernel == "se"``, and
-    every other part set from ``opts`` (the stopping rule from ``problem.early_stop``). Not yet fitted: call ``fit`` on
+    every other part set from ``opts`` (the stopping rule from ``problem.early_stop``, a growing search box where the
+    problem has limits past the cube). Not yet fitted: call ``fit`` on
     ``problem.data()``. ``seed`` seeds the
     GPs, ``rng`` the candidates."""
     d = problem.dim
@@ -116,4 +118,8 @@ def safe_bo_for(
                        adaptive=part(opts, AdaptiveConfig), stress=problem.can_stress)
     if problem.early_stop is not None:
         bo.stopping = rule_from(problem.early_stop)
+    if problem.can_grow:
+        bo.box = GrowingBox(problem.limit_lo, problem.limit_hi)
+        if problem.on_grow is not None:
+            bo.on_grow = lambda g: problem.on_grow(problem.growth_record(g))
     return bo

@@ -11,7 +11,8 @@
   in 9-D.
 * :class:`~ksbo_mav.opt.methods.phases.Phases` — the proposers: boundary expansion, safe UCB (or SafeOpt's rule),
   then exploitation; the :class:`~ksbo_mav.opt.acquisition.trust_region.TrustRegion` keeps them near the
-  incumbent.
+  incumbent; a :class:`~ksbo_mav.opt.acquisition.growing_box.GrowingBox`, where the caller gives limits, moves the
+  search box's edges out when the incumbent reaches them.
 * :class:`~ksbo_mav.opt.methods.recommend.Recommender` and :class:`~ksbo_mav.opt.methods.refly.ReflyPhase` — the
   recommendation.
 
@@ -24,11 +25,13 @@ they enter the failure model and the exclusion balls, never the GPs as values. B
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
 from ksbo_mav.opt.acquisition.candidates import refine
 from ksbo_mav.opt.acquisition.certificate import Certificate
+from ksbo_mav.opt.acquisition.growing_box import Growth, GrowingBox
 from ksbo_mav.opt.acquisition.region import SearchRegion
 from ksbo_mav.opt.acquisition.rules import BoundaryExpansion
 from ksbo_mav.opt.acquisition.trust_region import TrustRegion
@@ -77,6 +80,8 @@ class SafeBO:
     refly: ReflyPhase
     rng: np.random.Generator
     trust_region: TrustRegion | None = None
+    box: GrowingBox | None = None  # None: the search box is the unit cube
+    on_grow: Callable[[Growth], None] | None = None  # hears each edge the box moves
     refinement: Refinement = field(default_factory=Refinement)
     refit_every: int = 0  # full refit every this many iterations; 0 = rank-one updates
     max_aborts: int | None = None  # the backup may cover trials only while fewer trials failed
@@ -142,15 +147,27 @@ class SafeBO:
             # P(abort) for the very next proposal.
             if self.certificate.failures is not None:
                 self.certificate.failures.fit(obs.X, ~obs.complete, obs.crashed)
+        if self.trust_region is not None or self.box is not None:
+            self._follow(outcome, done and y >= obs.p_min, x)
+
+    def _follow(self, outcome: Outcome, safe: bool, x: np.ndarray) -> None:
+        """The trust region and the growing box follow the incumbent after a trial at ``x``."""
+        center = self._incumbent()
         if self.trust_region is not None:
             # A success is a trial that becomes the incumbent by the posterior mean, not one whose flown value beats
             # the best flown: after a lucky flight no trial within the noise would beat it, and the region would
             # never grow (an ArduCopter SITL campaign stalled at 72 % of a long one's cut that way).
             before = self.trust_region.center
-            center = self._incumbent()
             moved = before is None or not np.allclose(center, before)
-            self.trust_region.update(outcome, done and y >= obs.p_min and moved and np.allclose(center, x))
+            self.trust_region.update(outcome, safe and moved and np.allclose(center, x))
             self.trust_region.center = center
+        if self.box is not None:  # moved by flights alone: the prior's points never flew
+            flown = self.region.incumbent(self.obs, self.model, self.certificate, flown=True)
+            moves = self.box.update(flown, self.iteration, self.region.free)
+            if moves:
+                self.region.lo, self.region.hi = self.box.lo.copy(), self.box.hi.copy()
+            for m in moves if self.on_grow is not None else ():
+                self.on_grow(m)
 
     # -- posterior (the acquisition rules' view: opt.acquisition.rules.Posterior) --------------------------------------
     def bounds(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -199,7 +216,8 @@ class SafeBO:
         score = np.where(pool, score, -np.inf)
         order = np.argsort(-score)[: r.starts]
         order = order[np.isfinite(score[order])]
-        starts, s_ref = refine(rule, C[order], self.rng, r.rounds, r.samples, r.scale, free=self.region.free)
+        starts, s_ref = refine(rule, C[order], self.rng, r.rounds, r.samples, r.scale, free=self.region.free,
+                               lo=self.region.lo, hi=self.region.hi)
         x = starts[int(np.argmax(s_ref))]
         parts = self.certificate.parts(self.surrogate, obs, x[None, :])
         if not self.feasible(x[None, :], parts[2])[0]:  # cannot happen (refine only accepts feasible moves): a guard

@@ -88,6 +88,9 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
         bo = safe_bo_for(problem, fixed, sel.orders, sel.dims, seed, rng)
         bo.iteration, bo.fallbacks = old.iteration, old.fallbacks
         bo.stopping = old.stopping
+        if old.box is not None:
+            bo.box, bo.region.lo, bo.region.hi = old.box, old.region.lo, old.region.hi
+            bo.on_grow = old.on_grow
         bo.fit(X, y, done, crashed)
         log += run_safe_bo(problem, bo, after=after)
     info["proposals"] = log
@@ -98,6 +101,9 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
         info["safety_lengthscales"] = bo.surrogate.scale.history
     if bo.trust_region is not None:
         info["trust_region"] = {"radius": bo.trust_region.radius, "history": bo.trust_region.history}
+    if bo.box is not None:
+        info["box"] = {"bounds": problem.to_physical(np.column_stack([bo.box.lo, bo.box.hi]).T).T.tolist(),
+                       "growth": [problem.growth_record(g) for g in bo.box.history]}
     if problem.stopped and opts.max_aborts is not None and bo.obs.aborts >= opts.max_aborts:
         info["stopped"] = f"max_aborts={opts.max_aborts} reached"
     if bo.stopping is not None:
