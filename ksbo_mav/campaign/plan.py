@@ -27,7 +27,9 @@ def campaign_plan(v: Vehicle, cfg: CampaignConfig, d: CampaignDir, base: dict[st
     ({autopilot parameter name: value})."""
     x0 = v.gain_map.from_params(base)
     b = opt_bounds(v.profile, x0)
+    grows = v.profile.trust_region.grow
     rows = [f"  {g.name:<16} {n:<16} now {x:<10.5g} tune in [{lo:.5g}, {hi:.5g}]"
+            + (f", may grow to [{g.min:.5g}, {g.max:.5g}]" if grows and (g.min < lo or g.max > hi) else "")
             for g, n, x, (lo, hi) in zip(v.profile.gains, v.gain_map.param_names, x0, b)]
     kind = prior_kind(cfg, v.profile)
     n_prior = prior_size(cfg, kind) if kind == "local" else 0  # flown prior trials
@@ -37,7 +39,7 @@ def campaign_plan(v: Vehicle, cfg: CampaignConfig, d: CampaignDir, base: dict[st
         *(line for line in (v.firmware_check.line, v.firmware_check.warning) if line),
         f"profile: {v.profile.name}; method {cfg.method}, {cfg.budget} trials "
         f"(+ prior '{kind}'{prior_note(kind, prior_size(cfg, kind))}), seed {cfg.seed}" + options_note(cfg, v.profile),
-        "gains (profile name, vehicle name, current value, optimiser range):", *rows,
+        "gains (profile name, vehicle name, current value, the first search box and how far it may grow):", *rows,
         flight_plan(v.profile, n_prior, cfg.budget, cfg.confirm, cfg.settle_s, cfg.baseline_every),
         *([v.wind_plan] if getattr(v, "wind_plan", None) else []),  # tune --wind: ksbo_mav.campaign.wind_preflight
         ValidationPlan.describe(v.profile, cfg.validation),
