@@ -33,7 +33,10 @@ def add_parser(subparsers) -> None:
         "tune", add_help=False, help="tune a vehicle's gains over MAVLink (safe BO, journalled, restorable)",
         usage="ksbo-mav tune (DIR | --resume DIR) (--udp | --udp-out | --tcp | --serial ADDRESS) [options]",
         description="Snapshots every parameter to DIR, flies the baseline gains and then figure-8 trials chosen by "
-                    "safe Bayesian optimisation, writes the result (DIR/result.json, DIR/report/index.html, "
+                    "safe Bayesian optimisation (the search starts in a box around the vehicle's gains, the profile's "
+                    "[trust_region], and grows towards the profile's limits, the autopilot's documented ranges, "
+                    "where the best flights reach an edge; --dry-run shows both), writes the result "
+                    "(DIR/result.json, DIR/report/index.html, "
                     "DIR/recommended.param) before the validation flights, restores the baseline gains (unless "
                     "--accept), lands (unless --end hold) and writes the result again. Ctrl-C aborts the trial, "
                     "restores the baseline and lands. Any stop leaves the report of what was flown and prints the "
