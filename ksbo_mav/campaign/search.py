@@ -23,9 +23,7 @@ from ksbo_mav.campaign.search_end import search_end
 from ksbo_mav.campaign.trials import TrialLoop
 from ksbo_mav.errors import UnsafeStartError, VehicleError
 from ksbo_mav.mav.approach import moving_starts
-
-#: The methods whose search box may grow (the safe GP methods: opt.acquisition.growing_box).
-GROWING_METHODS = ("ksbo", "ksbo-adaptive", "standard", "safeopt")
+from ksbo_mav.opt import SAFE_GP_METHODS
 
 
 def _optimize(trials: TrialLoop, cfg: Any, done: list[JournalEntry], start: np.ndarray, bounds: np.ndarray,
@@ -41,26 +39,24 @@ def _optimize(trials: TrialLoop, cfg: Any, done: list[JournalEntry], start: np.n
                            if moving_starts(m.kind, m.start_speed) else None)
     options = {**optimizer_options(prior_kind(cfg, profile), cfg.options, cfg.method, profile), **extra}
     limits = None
-    if profile.trust_region.grow and cfg.method in GROWING_METHODS:
+    if profile.trust_region.grow and cfg.method in SAFE_GP_METHODS:
         limits = np.column_stack([np.minimum(profile.bounds[:, 0], bounds[:, 0]),
                                   np.maximum(profile.bounds[:, 1], bounds[:, 1])])
 
-    def grew(g: dict[str, Any]) -> None:
-        g = {**g, "name": profile.names[g["dim"]]}
-        log(f"search box {growth_message(g, float(profile.bounds[g['dim'], int(g['side'] == 'upper')]))}")
-
     result = optimize(replay, start, bounds, prior=prior, budget=budget, method=cfg.method, seed=cfg.seed,
-                      p_min=0.0, check_x0=True, limits=limits, on_grow=grew, **options)
+                      p_min=0.0, check_x0=True, limits=limits, on_grow=lambda g: log(growth_message(g, profile)),
+                      **options)
     for g in (getattr(result, "info", None) or {}).get("box", {}).get("growth", []):
         g["name"] = profile.names[g["dim"]]
     return result, replay.unused
 
 
-def growth_message(g: dict[str, Any], limit: float) -> str:
-    """One growth of the search box (``result.json``'s ``box.growth`` row) in words; ``limit``: that gain's
-    documented end on that side."""
+def growth_message(g: dict[str, Any], profile: Any) -> str:
+    """One growth of the search box (``result.json``'s ``box.growth`` row) in words, with that gain's documented end
+    on that side (the ``profile``'s box)."""
+    name, limit = profile.names[g["dim"]], float(profile.bounds[g["dim"], int(g["side"] == "upper")])
     end = " (its documented end)" if np.isclose(g["new"], limit) else f" (documented end {limit:.4g})"
-    return f"grew after trial {g['trial']}: {g['name']} {g['side']} bound {g['old']:.4g} -> {g['new']:.4g}{end}"
+    return f"search box grew after trial {g['trial']}: {name} {g['side']} bound {g['old']:.4g} -> {g['new']:.4g}{end}"
 
 
 def search(trials: TrialLoop, cfg: CampaignConfig, x0: np.ndarray, bounds: np.ndarray, prior: Any,

@@ -69,21 +69,17 @@ class Earlier:
         baseline flying ``rms_ref`` now."""
         ratio = self.rms_ref / rms_ref if self.rms_ref and rms_ref else 1.0
         entries = [e for e in self.journal.entries if e.kind in ("opt", "prior", "confirm")]
-        X, y = campaign_data(entries, None)
+        X, y = campaign_data(entries)
         return X, 1.0 - (1.0 - y) * ratio
 
 
-def campaign_data(opt: list[Any], prior: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
-    """(X, y): the ``prior`` and the trials ``opt`` (journal entries). A trial the monitor aborted or that crashed
-    enters with P at most 0: the optimiser's prior has no outcomes, and what it must learn from one is that the gains
-    were not safe there."""
-    X = [np.asarray(prior[0], dtype=float)] if prior is not None else []
-    y = [np.asarray(prior[1], dtype=float)] if prior is not None else []
-    if opt:
-        X.append(np.array([e.x for e in opt], dtype=float))
-        y.append(np.array([e.P if e.outcome == "ok" else min(e.P, 0.0) for e in opt], dtype=float))
-    dim = len(opt[0].x) if opt else (np.asarray(prior[0]).shape[1] if prior is not None else 0)
-    return (np.vstack(X) if X else np.zeros((0, dim))), (np.concatenate(y) if y else np.zeros(0))
+def campaign_data(entries: list[Any]) -> tuple[np.ndarray, np.ndarray]:
+    """(X, y) of the flown trials ``entries`` (journal entries). A trial the monitor aborted or that crashed enters
+    with P at most 0: the optimiser's prior has no outcomes, and what it must learn from one is that the gains were
+    not safe there."""
+    X = np.array([e.x for e in entries], dtype=float) if entries else np.zeros((0, 0))
+    y = np.array([e.P if e.outcome == "ok" else min(e.P, 0.0) for e in entries], dtype=float)
+    return X, y
 
 
 def warm_search(trials: Any, cfg: Any, vehicle: Any, x0: np.ndarray, log: Callable[[str], None]

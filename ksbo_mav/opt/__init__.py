@@ -23,10 +23,13 @@ METHODS: tuple[str, ...] = ("ksbo", "ksbo-adaptive", "standard", "safeopt", "lin
 #: Methods that never query a point their GP does not certify safe (apart from fallbacks to safe observations).
 SAFE_METHODS: tuple[str, ...] = ("ksbo", "ksbo-adaptive", "standard", "safeopt", "linebo")
 
+#: The safe GP methods (opt.methods.safe_methods): their search box grows towards ``optimize(limits=...)``.
+SAFE_GP_METHODS: tuple[str, ...] = ("ksbo", "ksbo-adaptive", "standard", "safeopt")
+
 
 def run_method(method: str, problem: Problem, opts: Options, seed: int | None) -> OptimizeResult:
     """Spend ``problem``'s remaining budget with ``method`` and return its result (x0 already evaluated)."""
-    if method in ("ksbo", "ksbo-adaptive", "standard", "safeopt"):
+    if method in SAFE_GP_METHODS:
         from ksbo_mav.opt.methods.safe_methods import run_safe_method
 
         return run_safe_method(problem, method, opts, seed)
@@ -67,5 +70,5 @@ def run_problem(problem: Problem, method: str, opts: Options, seed: int | None =
     return run_method(method, problem, opts, seed)
 
 
-__all__ = ["Evaluation", "Outcome", "METHODS", "SAFE_METHODS", "OptimizeResult", "Options", "Problem", "options_for",
-           "run_method", "run_problem"]
+__all__ = ["Evaluation", "Outcome", "METHODS", "SAFE_METHODS", "SAFE_GP_METHODS", "OptimizeResult", "Options",
+           "Problem", "options_for", "run_method", "run_problem"]

@@ -67,8 +67,7 @@ def grown_record(rec: CampaignRecord, result: dict[str, Any] | None, profile: An
     if not box.get("bounds"):
         return rec, limits, []
     rec = dataclasses.replace(rec, settings={**rec.settings, "bounds": box["bounds"]})
-    lines = [BoxGrowth("search box " + growth_message(g, float(profile.bounds[g["dim"], int(g["side"] == "upper")])))
-             for g in box.get("growth", []) if fits]
+    lines = [BoxGrowth(growth_message(g, profile)) for g in box.get("growth", []) if fits]
     return rec, limits, lines
 
 

@@ -47,15 +47,6 @@ class GrowingBox:
         self.limit_hi = np.maximum(np.asarray(self.limit_hi, dtype=float), 1.0)
         self.lo, self.hi = np.zeros_like(self.limit_lo), np.ones_like(self.limit_hi)
 
-    @property
-    def can_grow(self) -> bool:
-        """Whether any edge is short of its limit."""
-        return bool(np.any(self.lo > self.limit_lo + 1e-12) or np.any(self.hi < self.limit_hi - 1e-12))
-
-    def clip(self, Z: np.ndarray) -> np.ndarray:
-        """Z (…, d) clipped into the box."""
-        return np.clip(Z, self.lo, self.hi)
-
     def contains(self, Z: np.ndarray) -> np.ndarray:
         """(m,) bool: rows of Z (m, d) inside the box."""
         Z = np.atleast_2d(Z)

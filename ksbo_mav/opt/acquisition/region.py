@@ -9,6 +9,7 @@ import numpy as np
 
 from ksbo_mav.opt.acquisition.candidates import local_gaussian, sobol
 from ksbo_mav.opt.acquisition.certificate import Certificate
+from ksbo_mav.opt.acquisition.growing_box import GrowingBox
 from ksbo_mav.opt.models.safety_model import SafetyModel
 from ksbo_mav.opt.observations import Observations
 
@@ -20,8 +21,8 @@ CONNECT_RADIUS = 0.1
 class SearchRegion:
     """Candidate generation in the subspace ``free`` (d,) bool through ``x0`` (d,): ``n_local`` Gaussian points
     at ``local_scales`` around up to ``n_anchors`` anchors, plus ``n_global`` Sobol points when ``explore_from``
-    is "all" ("x0": the region grows from the start; no global points). Local points stay in the box ``lo``..``hi``
-    (the cube by default; a growing search box moves them: opt.acquisition.growing_box)."""
+    is "all" ("x0": the region grows from the start; no global points). Local points stay in the growing search
+    ``box`` where there is one (opt.acquisition.growing_box), else in the unit cube."""
 
     free: np.ndarray
     x0: np.ndarray
@@ -30,8 +31,7 @@ class SearchRegion:
     local_scales: tuple[float, ...] = (0.02, 0.05, 0.1, 0.2)
     n_global: int = 256
     explore_from: str = "x0"
-    lo: np.ndarray | float = 0.0
-    hi: np.ndarray | float = 1.0
+    box: GrowingBox | None = None
 
     def anchors(self, obs: Observations, lcb_d: np.ndarray, ucb_d: np.ndarray, rng: np.random.Generator,
                 center: np.ndarray | None = None) -> np.ndarray:
@@ -69,6 +69,16 @@ class SearchRegion:
             if not new.any():
                 return linked
             linked[:m] |= new
+
+    @property
+    def lo(self) -> np.ndarray | float:
+        """Lower edges the candidates stay within: the growing box's, else the cube's."""
+        return 0.0 if self.box is None else self.box.lo
+
+    @property
+    def hi(self) -> np.ndarray | float:
+        """Upper edges the candidates stay within: the growing box's, else the cube's."""
+        return 1.0 if self.box is None else self.box.hi
 
     def candidates(self, anchors: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """(m, d) candidate set: local clouds around ``anchors`` (k, d) plus global Sobol (moved dims only)."""

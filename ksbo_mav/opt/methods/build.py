@@ -119,7 +119,7 @@ def safe_bo_for(
     if problem.early_stop is not None:
         bo.stopping = rule_from(problem.early_stop)
     if problem.can_grow:
-        bo.box = GrowingBox(problem.limit_lo, problem.limit_hi)
+        bo.region.box = GrowingBox(problem.limit_lo, problem.limit_hi)
         if problem.on_grow is not None:
             bo.on_grow = lambda g: problem.on_grow(problem.growth_record(g))
     return bo

@@ -80,7 +80,6 @@ class SafeBO:
     refly: ReflyPhase
     rng: np.random.Generator
     trust_region: TrustRegion | None = None
-    box: GrowingBox | None = None  # None: the search box is the unit cube
     on_grow: Callable[[Growth], None] | None = None  # hears each edge the box moves
     refinement: Refinement = field(default_factory=Refinement)
     refit_every: int = 0  # full refit every this many iterations; 0 = rank-one updates
@@ -89,6 +88,11 @@ class SafeBO:
     iteration: int = field(default=0, init=False)
     fallbacks: int = field(default=0, init=False)
     remaining: int | None = field(default=None, init=False)  # evaluations left for the search (the driver sets it)
+
+    @property
+    def box(self) -> GrowingBox | None:
+        """The growing search box (the candidates' region holds it); None: the search box is the unit cube."""
+        return self.region.box
 
     @property
     def model(self) -> SafetyModel:
@@ -163,11 +167,9 @@ class SafeBO:
             self.trust_region.center = center
         if self.box is not None:  # moved by flights alone: the prior's points never flew
             flown = self.region.incumbent(self.obs, self.model, self.certificate, flown=True)
-            moves = self.box.update(flown, self.iteration, self.region.free)
-            if moves:
-                self.region.lo, self.region.hi = self.box.lo.copy(), self.box.hi.copy()
-            for m in moves if self.on_grow is not None else ():
-                self.on_grow(m)
+            for m in self.box.update(flown, self.iteration, self.region.free):
+                if self.on_grow is not None:
+                    self.on_grow(m)
 
     # -- posterior (the acquisition rules' view: opt.acquisition.rules.Posterior) --------------------------------------
     def bounds(self, Z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

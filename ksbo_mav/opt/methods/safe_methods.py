@@ -88,9 +88,7 @@ def run_safe_method(problem: Problem, method: str, opts: Options, seed: int | No
         bo = safe_bo_for(problem, fixed, sel.orders, sel.dims, seed, rng)
         bo.iteration, bo.fallbacks = old.iteration, old.fallbacks
         bo.stopping = old.stopping
-        if old.box is not None:
-            bo.box, bo.region.lo, bo.region.hi = old.box, old.region.lo, old.region.hi
-            bo.on_grow = old.on_grow
+        bo.region.box, bo.on_grow = old.region.box, old.on_grow
         bo.fit(X, y, done, crashed)
         log += run_safe_bo(problem, bo, after=after)
     info["proposals"] = log
