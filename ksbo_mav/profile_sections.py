@@ -40,7 +40,8 @@ class SafetyLimits:
     gains (the backup) to catch: true when every tuned gain is an outer (position/velocity) loop whose output the
     autopilot clips to its lean-angle limit (ANGLE_MAX, MPC_TILTMAX_AIR) and the attitude loops are untouched.
     ``ksbo-adaptive`` then may fly gains outside the certified set while its abort budget lasts (option
-    ``backup_beta``, :data:`ksbo_mav.campaign.config.BACKUP_BETA`). False (the default) when the tuned gains
+    ``backup_beta``) and its trust region may double after every new incumbent (``tr_success``;
+    :data:`ksbo_mav.campaign.config.COVERED_TRIALS`). False (the default) when the tuned gains
     include an attitude loop or nothing bounds the tilt: the planar task's bad gains flip the vehicle in 0.2 s.
 
     ``brake_accel_mps2`` (optional) checks the box at the point where the vehicle would stop braking at that
@@ -138,9 +139,10 @@ class ScoreSpec:
     ``P = 1 - RMS / (unsafe_rms_ratio * RMS_ref)`` with RMS_ref the campaign's baseline flight (or ``rms_ref_m``
     when set: a fixed reference), so the baseline scores ``1 - 1/unsafe_rms_ratio`` and P < 0 means tracking more
     than ``unsafe_rms_ratio`` times worse than the baseline. ``smooth_weight`` (w, default 0: off) adds the
-    smoothness term, ``P = 1 - (RMS / RMS_ref + w max(0, rough - rough_ref) / max(rough_ref, 0.5)) /
-    unsafe_rms_ratio`` with rough the lap's body-rate roughness (deg/s) above ``rough_cutoff_hz`` and rough_ref the
-    baseline flight's (:mod:`ksbo_mav.smoothness`). New score keys are new fields here.
+    smoothness term, ``P = 1 - (RMS / RMS_ref + w max(0, rough - rough_ref - b r) / r) / unsafe_rms_ratio``,
+    ``r = max(rough_ref, 0.5)``, with rough the lap's body-rate roughness (deg/s) above ``rough_cutoff_hz``, rough_ref
+    the baseline flight's and b ``rough_band`` (default 0: the measure's own scatter, a fraction of r;
+    :mod:`ksbo_mav.smoothness`). New score keys are new fields here.
     """
 
     Q: tuple[float, ...] | None = None
@@ -153,6 +155,7 @@ class ScoreSpec:
     rms_ref_m: float | None = None
     smooth_weight: float | None = None
     rough_cutoff_hz: float | None = None
+    rough_band: float | None = None
 
     def __post_init__(self) -> None:
         if self.Q is not None and len(self.Q) != 6 or self.R is not None and len(self.R) != 2:
@@ -160,6 +163,9 @@ class ScoreSpec:
         _positive(self, "j_hi", "rms_ref_m", "rough_cutoff_hz")
         if self.smooth_weight is not None and not self.smooth_weight >= 0:
             raise InputError(f"smooth_weight must be >= 0 (0: tracking alone), got {self.smooth_weight!r}")
+        if self.rough_band is not None and not 0 <= self.rough_band < 1:
+            raise InputError(f"rough_band must be in [0, 1) (a fraction of the baseline's roughness), "
+                             f"got {self.rough_band!r}")
         if self.unsafe_rms_ratio is not None and not self.unsafe_rms_ratio > 1.0:
             raise InputError(f"unsafe_rms_ratio must be > 1 (the baseline must score safe), "
                              f"got {self.unsafe_rms_ratio}")

@@ -14,7 +14,7 @@ import pytest
 from test_cli_first_run import closed_tcp_port, one_line_error, run
 
 from ksbo_mav.campaign import CampaignConfig, CampaignDir
-from ksbo_mav.campaign.config import (BACKUP_BETA, MissionRate, optimizer_options, prior_kind, prior_size, resolve,
+from ksbo_mav.campaign.config import (COVERED_TRIALS, MissionRate, optimizer_options, prior_kind, prior_size, resolve,
                                      settle)
 from ksbo_mav.cli import build_parser
 from ksbo_mav.campaign.settings import SETTING, SETTINGS, settings_markdown
@@ -66,7 +66,10 @@ def _new_args(tmp_path, *cli: str):
     ("backup_beta", "command_line (null turns it off)",
      lambda tmp: optimizer_options("local", {"backup_beta": None}, "ksbo-adaptive", AP)["backup_beta"], None),
     ("backup_beta", "profile",
-     lambda tmp: optimizer_options("local", {}, "ksbo-adaptive", AP)["backup_beta"], BACKUP_BETA),
+     lambda tmp: optimizer_options("local", {}, "ksbo-adaptive", AP)["backup_beta"], COVERED_TRIALS["backup_beta"]),
+    ("tr_success", "profile", lambda tmp: optimizer_options("local", {}, "ksbo-adaptive", AP)["tr_success"], 1),
+    ("tr_success", "command_line",
+     lambda tmp: optimizer_options("local", {"tr_success": 2}, "ksbo-adaptive", AP)["tr_success"], 2),
     ("backup_beta", "default (absent)",
      lambda tmp: optimizer_options("local", {}, "ksbo-adaptive", PLANAR).get("backup_beta", "absent"), "absent"),
     ("signal_std", "command_line",

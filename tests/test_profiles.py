@@ -121,7 +121,8 @@ def test_score_keys_are_the_fields_of_one_dataclass(tmp_path):
                     "unsafe_rms_ratio = 3.0\nrms_ref_m = 0.2\n")
     p = load_profile(path)
     assert p.score_spec.rms_ref_m == 0.2 and p.section("score") == {"unsafe_rms_ratio": 3.0, "rms_ref_m": 0.2,
-                                                                      "smooth_weight": 0.5, "rough_cutoff_hz": 2.0}
+                                                                      "smooth_weight": 0.5, "rough_cutoff_hz": 2.0,
+                                                                      "rough_band": 0.15}
     score = "[score]\nQ = [1, 0.1, 1, 0.1, 0.1, 0.1]\nj_hi = 5\n\n[mission]"
     path = _variant(tmp_path, "sim-planar", "[mission]", score)
     assert load_profile(path).score_spec.given() == {"Q": (1.0, 0.1, 1.0, 0.1, 0.1, 0.1), "j_hi": 5.0}
@@ -147,19 +148,20 @@ def test_unknown_safety_override_is_refused():
 def test_backup_coverage_implies_backup_exploration_for_ksbo_adaptive_only(tmp_path):
     """The copter profiles (outer loops behind a lean-angle limit) let ksbo-adaptive explore beyond the
     certified set; the planar task (attitude loop tuned) does not; the user's option wins either way."""
-    from ksbo_mav.campaign.config import BACKUP_BETA, optimizer_options, profile_defaults
+    from ksbo_mav.campaign.config import COVERED_TRIALS, optimizer_options, profile_defaults
 
     planar, ap, px4 = (load_profile(n) for n in ("sim-planar", "ardupilot-copter", "px4-copter"))
     assert not planar.safety.backup_covers_trials and ap.safety.backup_covers_trials and px4.safety.backup_covers_trials
-    implied = {"backup_beta": BACKUP_BETA}
+    implied = COVERED_TRIALS
+    assert implied["backup_beta"] == 0.5 and implied["tr_success"] == 1  # wider certificate, faster trust region
     assert profile_defaults("ksbo-adaptive", ap) == profile_defaults("ksbo-adaptive", px4) == implied
     assert profile_defaults("ksbo-adaptive", planar) == {} and profile_defaults("ksbo", ap) == {}
     assert profile_defaults("ksbo-adaptive", None) == {}
-    assert optimizer_options("local", {}, "ksbo-adaptive", ap)["backup_beta"] == BACKUP_BETA
+    assert optimizer_options("local", {}, "ksbo-adaptive", ap)["backup_beta"] == 0.5
     assert optimizer_options("local", {"backup_beta": 2.0}, "ksbo-adaptive", ap)["backup_beta"] == 2.0
     assert "backup_beta" not in optimizer_options("sim", {}, "ksbo-adaptive", planar)
     flipped = _variant(tmp_path, "sim-planar", "backup_covers_trials = false", "backup_covers_trials = true")
-    assert profile_defaults("ksbo-adaptive", load_profile(flipped)) == {"backup_beta": BACKUP_BETA}
+    assert profile_defaults("ksbo-adaptive", load_profile(flipped)) == COVERED_TRIALS
 
 
 def test_px4_search_box_reaches_the_position_gain_that_halves_the_sitl_error():

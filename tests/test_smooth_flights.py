@@ -1,8 +1,9 @@
 """The smoothness term on flown trials: the built-in JSBSim copter (ArduPilot names, lockstep, its own process over
 loopback UDP) with raised sensor noise, which its position loops fly (as an autopilot flies its estimate). The
 trust region's corner of gains tracks the figure-8 better than the baseline and shakes the vehicle more: the
-score charges the roughness, so the smoother baseline wins; ``ksbo-mav score`` on the trial's tlog gives the live
-score (the baseline's roughness travels in the tlog's marker)."""
+score charges the roughness, so the smoother baseline wins; the motors shake more too (SERVO_OUTPUT_RAW, asked at
+the mission rate); ``ksbo-mav score`` on the trial's tlog gives the live score and motor oscillation (the baseline's
+roughness travels in the tlog's marker)."""
 
 from __future__ import annotations
 
@@ -34,6 +35,7 @@ def test_gains_that_track_better_and_shake_more_lose_to_the_smooth_baseline(tmp_
         try:
             base = {n: v.params.read(n) for n in v.gain_map.param_names}
             v.setup_streams()
+            assert v.cmd.set_interval(36, 1e6 / v.mission.rate_hz)  # SERVO_OUTPUT_RAW
             v.ensure_airborne()
             obj = MavlinkObjective(v, base, tmp_path)
             first = obj.fly(v.gain_map.from_params(base), label="baseline")
@@ -52,7 +54,11 @@ def test_gains_that_track_better_and_shake_more_lose_to_the_smooth_baseline(tmp_
     assert tracking_alone > 0.5 > c["P"]  # tracking alone would prefer the corner; the score prefers the baseline
     assert c["P"] == pytest.approx(tracking_alone - c["smooth_penalty"] / c["unsafe_rms_ratio"])
     assert c["rough_ref_dps"] == pytest.approx(b["rough_dps"], rel=1e-5)
+    print(f"motor oscillation: baseline {b['motor_osc_us']:.1f} us, corner {c['motor_osc_us']:.1f} us")
+    assert c["motor_osc_us"] > 1.3 * b["motor_osc_us"] > 0  # what RCOU would show (measured: 6.1 -> 9.6 us)
     r = subprocess.run([sys.executable, "-m", "ksbo_mav.cli", "score", corner.meta["tlog"], "--profile",
                         str(profile), "--json"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
-    assert json.loads(r.stdout)["score"]["P"] == pytest.approx(c["P"], abs=1e-9)
+    replayed = json.loads(r.stdout)["score"]
+    assert replayed["P"] == pytest.approx(c["P"], abs=1e-9)
+    assert replayed["motor_osc_us"] == pytest.approx(c["motor_osc_us"], rel=1e-9)

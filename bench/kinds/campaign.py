@@ -185,9 +185,10 @@ def _refly(key: dict[str, Any], ref: dict[str, float] | None, d: Path, ep, best:
     if ref:
         gains["long"] = ref
     t1 = time.time()
-    rough: dict[str, list[float | None]] = {}
-    result["reflown"] = refly_in_turn(d, ep, gains, key.get("refly", 3), rough)
-    if any(v is not None for values in rough.values() for v in values):
-        result["reflown_rough"] = rough
+    smooth: dict[str, dict[str, list[float | None]]] = {}
+    result["reflown"] = refly_in_turn(d, ep, gains, key.get("refly", 3), smooth)
+    for name, per_set in smooth.items():  # reflown_rough (deg/s), reflown_motor (µs)
+        if any(v is not None for values in per_set.values() for v in values):
+            result[f"reflown_{name}"] = per_set
     timing["refly_s"] = round(time.time() - t1, 1)
     refly_figures(result, cands, len(entries))

@@ -27,6 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from ksbo_bench.kinds.independent_refly import stream_motor_outputs
+
 CLIENTS = {"client": [], "client+lead10": ["--lead-ms", "10"], "client-ff": ["--no-feed-forward"],
            "client10hz": ["--every", "5"]}
 MANOEUVRES = ("steps", "hold", "auto_mission")
@@ -97,6 +99,7 @@ class Ways:
 
         self.v, self.base, self.work, self.sitl, self.guard, self.log = v, base, work, sitl, guard, log
         self.rate = v.mission.rate_hz  # the rate the link check left
+        stream_motor_outputs(v)
         self.objectives: dict[int, Any] = {}
         self.monitor = Monitor(limits_from_profile(v.profile), v.stack.modes["guided"], v.stack.mode_name)
         vspec = v.profile.validation_spec
@@ -109,6 +112,7 @@ class Ways:
         if self.v.mission.rate_hz != rate:
             self.v.set_mission_rate(rate)
             self.v.setup_streams()
+            stream_motor_outputs(self.v)
         if rate not in self.objectives:
             self.objectives[rate] = MavlinkObjective(self.v, self.base, self.work / f"trials-{rate}hz", log=self.log)
         return self.objectives[rate]
@@ -127,7 +131,8 @@ class Ways:
             except TrialStopped as exc:  # the tuner fell behind, the link: recorded, not scored
                 return {"outcome": "stopped", "message": str(exc)[:200]}
             row = {"outcome": str(f.outcome.value), "rms": f.score.get("rms_lap2_m"),
-                   "rough": f.score.get("rough_dps"), "tilt_max": f.score.get("tilt_max_deg"),
+                   "rough": f.score.get("rough_dps"), "motor": f.score.get("motor_osc_us"),
+                   "tilt_max": f.score.get("tilt_max_deg"),
                    "true_rms": true_rms(Path(f.meta["tlog"]), self.v.mission),
                    "lag_max_ms": f.meta["link"].get("lag_max_ms"), "late_fraction": f.meta["link"].get("late_fraction"),
                    "lost": f.meta["link"].get("lost_packets"), "samples": f.score.get("samples"),

@@ -24,12 +24,24 @@ def _fly(obj, x, label: str, tries: int = 3) -> dict:
     return {}
 
 
+#: What a re-flight's score says about smoothness (ksbo_mav.smoothness), by the name its figures go under.
+SMOOTHNESS = {"rough": "rough_dps", "motor": "motor_osc_us"}
+
+
+def stream_motor_outputs(v) -> None:
+    """Ask vehicle ``v`` for SERVO_OUTPUT_RAW at its mission's rate (the motor oscillation is measured from it;
+    the tuner only records it where the vehicle streams it of its own accord): a direct link to a SITL has room."""
+    from ksbo_mav.mav.wire import mavlink
+
+    v.cmd.set_interval(mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, 1e6 / v.mission.rate_hz)
+
+
 def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3,
-                  rough: dict[str, list[float | None]] | None = None) -> dict[str, list[float | None]]:
+                  smooth: dict[str, dict[str, list[float | None]]] | None = None) -> dict[str, list[float | None]]:
     """{"baseline" and each label of ``gains`` ({label: {parameter: value}}): lap-2 RMS of each of its ``n``
     flights}, flown in turn on the vehicle the campaign in ``d`` left hovering (reached at Endpoint ``ep``); lands.
-    Gains not named in a set keep the baseline's values. ``rough``, when given, receives each flight's roughness
-    (deg/s, ksbo_mav.smoothness) the same way."""
+    Gains not named in a set keep the baseline's values. ``smooth``, when given, receives each flight's roughness
+    (deg/s) and motor oscillation (µs) the same way, under the names of :data:`SMOOTHNESS`."""
     from ksbo_mav.mav.objective import MavlinkObjective
     from ksbo_mav.mav.params import load_snapshot
     from ksbo_mav.mav.vehicle import Vehicle
@@ -38,6 +50,7 @@ def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3,
     v = Vehicle.connect(ep, snap.profile)
     try:
         v.setup_streams()
+        stream_motor_outputs(v)
         base = snap.baseline()
         safety = _as_flown(v, d)
         obj = MavlinkObjective(v, base, Path(d) / "refly", first_index=0, safety=safety)
@@ -48,8 +61,8 @@ def refly_in_turn(d: Path, ep, gains: dict[str, dict[str, float]], n: int = 3,
             for k, x in xs.items():
                 score = _fly(obj, x, k)
                 out[k].append(score.get("rms_lap2_m"))
-                if rough is not None:
-                    rough.setdefault(k, []).append(score.get("rough_dps"))
+                for name, field in SMOOTHNESS.items() if smooth is not None else ():
+                    smooth.setdefault(name, {}).setdefault(k, []).append(score.get(field))
         v.land()
         return out
     finally:

@@ -1,5 +1,6 @@
 """The oracle sweeps' pages: a gain grid flown on one vehicle per condition (kind ``flights``), one table per cell,
-a row per gain set: its mean lap-2 RMS and roughness over the repeats, the largest tilt, the score with the
+a row per gain set: its mean lap-2 RMS, roughness and motor oscillation (where measured) over the repeats, the
+largest tilt, the score with the
 profile's smoothness term and with tracking alone (both against the baseline flown in the same cell), and the
 oracle, the best set by the score with the smoothness term, said with what limited it."""
 
@@ -12,7 +13,7 @@ from ksbo_bench.report.describe import condition, vehicle
 from ksbo_mav.smoothness import smooth_penalty
 
 #: The copter profiles' score constants (params/*-copter.toml [score]).
-RATIO, WEIGHT = 2.0, 0.5
+RATIO, WEIGHT, BAND = 2.0, 0.5, 0.15
 
 
 def _mean(rows: list[dict[str, Any]], field: str) -> float | None:
@@ -22,11 +23,12 @@ def _mean(rows: list[dict[str, Any]], field: str) -> float | None:
 
 def _score(rms: float, rms0: float, rough: float | None, rough0: float | None) -> float:
     """The copter profiles' score of a lap RMS and roughness against the baseline's (ksbo_mav.mav.mission)."""
-    return 1.0 - (rms / rms0 + smooth_penalty(rough, rough0, WEIGHT)) / RATIO
+    return 1.0 - (rms / rms0 + smooth_penalty(rough, rough0, WEIGHT, BAND)) / RATIO
 
 
 def summary(rec: dict[str, Any]) -> list[dict[str, Any]]:
-    """Per gain set: {set, gains, rms, rough, tilt, n, bad, P, P_track}; P from the means, against the baseline's."""
+    """Per gain set: {set, gains, rms, rough, motor, tilt, n, bad, P, P_track}; P from the means, against the
+    baseline's."""
     res = rec["result"]
     rows = res["flights"]
     base = [r for r in rows if r["set"] == "baseline" and r.get("outcome") == "ok"]
@@ -35,13 +37,13 @@ def summary(rec: dict[str, Any]) -> list[dict[str, Any]]:
     for name, gains in res["sets"].items():
         mine = [r for r in rows if r["set"] == name]
         ok = [r for r in mine if r.get("outcome") == "ok" and r.get("rms") is not None]
-        rms, rough = _mean(ok, "rms"), _mean(ok, "rough")
+        rms, rough, motor = _mean(ok, "rms"), _mean(ok, "rough"), _mean(ok, "motor")
         tilt = max((r["tilt_max"] for r in ok if r.get("tilt_max") is not None), default=None)
         P = P_track = None
         if rms is not None and rms0 and len(ok) == len(mine):  # a set with an aborted flight is no candidate
             P_track, P = _score(rms, rms0, None, None), _score(rms, rms0, rough, rough0)
-        out.append({"set": name, "gains": gains, "rms": rms, "rough": rough, "tilt": tilt, "n": len(mine),
-                    "bad": len(mine) - len(ok), "P": P, "P_track": P_track})
+        out.append({"set": name, "gains": gains, "rms": rms, "rough": rough, "motor": motor, "tilt": tilt,
+                    "n": len(mine), "bad": len(mine) - len(ok), "P": P, "P_track": P_track})
     return out
 
 
@@ -69,11 +71,13 @@ def cell(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> list[st
     k = rec["key"]
     rows = summary(rec)
     axes = [p for p in ranges if any(p in r["gains"] for r in rows)]
-    head = ("| set | " + " | ".join(axes) + " | flights | lap RMS (m) | roughness (deg/s) | largest tilt (deg) | "
-            "P, tracking alone | P (with smoothness) |")
+    motors = any(r["motor"] is not None for r in rows)  # SERVO_OUTPUT_RAW streamed in the cell
+    head = ("| set | " + " | ".join(axes) + " | flights | lap RMS (m) | roughness (deg/s) | "
+            + ("motor oscillation (µs) | " if motors else "") + "largest tilt (deg) | P, tracking alone | "
+            "P (with smoothness) |")
     caption = (f"**{vehicle(k)}, {k.get('condition') or condition(k)}, {k.get('reps', 3)} flight(s) per set, "
                f"{(rec.get('run', {}).get('started') or '')[:10]}**")
-    out = [head, "|" + "---|" * (len(axes) + 6)]
+    out = [head, "|" + "---|" * (len(axes) + 6 + motors)]
     fmt = lambda v, s: "–" if v is None else format(v, s)  # noqa: E731
     scored = [r for r in rows if r["P"] is not None]
     best = max(scored, key=lambda r: r["P"]) if scored else None
@@ -82,7 +86,8 @@ def cell(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> list[st
         bad = f" ({r['bad']} not ok)" if r["bad"] else ""
         out.append(f"| {mark}{r['set']}{mark} | " + " | ".join(fmt(r["gains"].get(p), "g") for p in axes)
                    + f" | {r['n']}{bad} | {fmt(r['rms'], '.3f')} | {fmt(r['rough'], '.2f')} | "
-                   f"{fmt(r['tilt'], '.1f')} | {fmt(r['P_track'], '.3f')} | {mark}{fmt(r['P'], '.3f')}{mark} |")
+                   + (f"{fmt(r['motor'], '.1f')} | " if motors else "")
+                   + f"{fmt(r['tilt'], '.1f')} | {fmt(r['P_track'], '.3f')} | {mark}{fmt(r['P'], '.3f')}{mark} |")
     return [caption, "\n".join(out)]
 
 
@@ -120,7 +125,8 @@ def report(sw, recs: list[dict[str, Any]]) -> list[str]:
         cells += cell(rec, ranges)
     out = [*head, *cells]
     out.append(f"P from each set's mean lap RMS and roughness against the baseline's in the same cell: P = 1 - (RMS / "
-               f"RMS_base + {WEIGHT:g} max(0, rough - rough_base) / max(rough_base, 0.5)) / {RATIO:g} (the copter "
+               f"RMS_base + {WEIGHT:g} max(0, rough - rough_base - {BAND:g} r) / r) / {RATIO:g}, r = max(rough_base, "
+               "0.5) (the copter "
                "profiles' score); a set with a flight that did not end ok is no candidate.")
     return out
 
@@ -137,14 +143,15 @@ def _oracle_P(condition_name: str) -> tuple[str, float] | None:
     return (best["set"], best["P"]) if best else None
 
 
-def _refly_means(rec: dict[str, Any]) -> tuple[dict[str, float], dict[str, float]]:
-    """({role: mean re-flown lap RMS}, {role: mean re-flown roughness}) of a campaign record."""
+def _refly_means(rec: dict[str, Any]) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
+    """({role: mean re-flown lap RMS}, {role: mean re-flown roughness}, {role: mean re-flown motor oscillation})
+    of a campaign record."""
     res = rec["result"]
 
     def means(d: dict[str, list]) -> dict[str, float]:
         return {k: statistics.mean([x for x in v if x is not None] or [float("nan")]) for k, v in d.items()}
 
-    return means(res.get("reflown", {})), means(res.get("reflown_rough", {}))
+    return means(res.get("reflown", {})), means(res.get("reflown_rough", {})), means(res.get("reflown_motor", {}))
 
 
 def _where(rec: dict[str, Any]) -> tuple:
@@ -155,17 +162,19 @@ def _where(rec: dict[str, Any]) -> tuple:
 
 def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
     """The default campaign's cells against the long campaign flown on the same vehicle in the same condition (label
-    long, the oracle by search): flights, safety, the re-flown baseline and recommendation (lap RMS, roughness), the
+    long, the oracle by search): flights, safety, the re-flown baseline and recommendation (lap RMS, roughness,
+    motor oscillation where measured), the
     recommendation's cut and its share of the long campaign's, its score, and the grid oracle's P where one was
     flown (oracle-copter3d)."""
+    motors = any(r["result"].get("reflown_motor") for r in recs)
     out = ["| vehicle | campaign | seed | flights | aborted | crashed | P < 0 | baseline RMS (m) / roughness | "
-           "recommendation RMS (m) / roughness | cut | share of the long campaign's cut | P |",
-           "|" + "---|" * 12]
+           "recommendation RMS (m) / roughness | " + ("motor oscillation, baseline / recommendation (µs) | " * motors)
+           + "cut | share of the long campaign's cut | P |", "|" + "---|" * (12 + motors)]
     longs = {_where(r): r for r in recs if r["key"].get("label") == "long"}
     grid = None
     for rec in sorted(recs, key=lambda r: (_where(r), r["key"].get("label") == "long", r["key"].get("seed", 0))):
         saf = rec.get("safety", {})
-        m, g = _refly_means(rec)
+        m, g, mo = _refly_means(rec)
         P = _score(m["rec"], m["baseline"], g.get("rec"), g.get("baseline")) if "rec" in m else None
         cut = 1.0 - m["rec"] / m["baseline"] if "rec" in m else None
         ref = longs.get(_where(rec))
@@ -173,13 +182,15 @@ def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
         if rec["result"].get("share_of_long") is not None:  # the long campaign's gains re-flown beside these
             share = f"{rec['result']['share_of_long']:.0%}"
         elif ref is not None and ref is not rec and cut is not None:
-            lm, _ = _refly_means(ref)
+            lm = _refly_means(ref)[0]
             share = f"{cut / (1.0 - lm['rec'] / lm['baseline']):.0%}"
         grid = grid or (_oracle_P(rec["key"]["condition"]) if rec["key"].get("condition") else None)
         out.append(f"| {vehicle(rec['key'])} {condition(rec['key'])} | {rec['key'].get('label', 'default')} | "
                    f"{rec['key'].get('seed')} | {rec['flights']['total']} | {saf.get('aborted')} | "
                    f"{saf.get('crashed')} | {saf.get('unsafe')} | {m['baseline']:.3f} / {g.get('baseline', 0):.2f} | "
-                   f"{m['rec']:.3f} / {g.get('rec', 0):.2f} | {'–' if cut is None else f'{cut:.0%}'} | {share} | "
+                   f"{m['rec']:.3f} / {g.get('rec', 0):.2f} | "
+                   + (f"{mo.get('baseline', float('nan')):.1f} / {mo.get('rec', float('nan')):.1f} | " * motors)
+                   + f"{'–' if cut is None else f'{cut:.0%}'} | {share} | "
                    f"{'–' if P is None else f'{P:.3f}'} |")
     out = ["\n".join(out)]
     out.append("Cut: 1 − the recommendation's mean re-flown lap RMS / the baseline's, both re-flown in turn on the "

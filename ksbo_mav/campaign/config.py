@@ -196,18 +196,21 @@ def stop_options(cfg: CampaignConfig, profile: Any) -> dict[str, Any]:
                            "patience": int(spec.stop_patience), "ratio": float(spec.stop_ratio)}}
 
 
-#: ``backup_beta`` of ``ksbo-adaptive`` on a profile whose ``[safety] backup_covers_trials`` is true: trials are
+#: ``ksbo-adaptive`` on a profile whose ``[safety] backup_covers_trials`` is true. ``backup_beta``: trials are
 #: certified with β 0.5 instead of 5 while the abort budget lasts (BENCHMARKS.md: ArduCopter SITL -60 % with it,
-#: +13 % without; on the planar task, whose tuned gains include the attitude loop, it crashes).
-BACKUP_BETA = 0.5
+#: +13 % without; on the planar task, whose tuned gains include the attitude loop, it crashes). ``tr_success``: the
+#: trust region doubles after every new incumbent instead of every second one, so a search that keeps improving
+#: reaches its box's edge (and the box grows) within the handful of trials one pack allows
+#: (benchmarks/notes/smooth-gains.md).
+COVERED_TRIALS = {"backup_beta": 0.5, "tr_success": 1}
 
 
 def profile_defaults(method: str, profile: Any) -> dict[str, Any]:
-    """Optimiser options a vehicle profile implies for ``method``: ``backup_beta`` (:data:`BACKUP_BETA`) for
-    ``ksbo-adaptive`` when the profile declares that the backup covers its trials
-    (:class:`ksbo_mav.profile_sections.SafetyLimits`), else nothing."""
+    """Optimiser options a vehicle profile implies for ``method``: :data:`COVERED_TRIALS` for ``ksbo-adaptive``
+    when the profile declares that the backup covers its trials (:class:`ksbo_mav.profile_sections.SafetyLimits`),
+    else nothing."""
     if method == "ksbo-adaptive" and profile is not None and profile.safety.backup_covers_trials:
-        return {"backup_beta": BACKUP_BETA}
+        return dict(COVERED_TRIALS)
     return {}
 
 

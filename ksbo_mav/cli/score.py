@@ -180,7 +180,7 @@ def _run_trial(args: argparse.Namespace) -> int:
         raise InputError(f"the tlog's trial ({rec.kind}, {rec.n} steps of {rec.dt} ms, scored from {rec.w}) does not "
                          f"match profile {profile.name}'s mission; pass the campaign's --profile")
     rms_ref = args.rms_ref if args.rms_ref is not None else getattr(rec, "rms_ref", None)
-    score = mission.score(traj, rms_ref=rms_ref, smooth=mission.lap_smoothness(rec.t0, rec.att),
+    score = mission.score(traj, rms_ref=rms_ref, smooth=mission.lap_smoothness(rec.t0, rec.att, rec.motors),
                           rough_ref=rec.rough_ref)
     if info["outcome"] != "ok":  # the live tuner counts every aborted trial as unsafe
         score["P"] = min(float(score["P"]), -1.0 / rec.n)
@@ -212,6 +212,10 @@ def _run_trial(args: argparse.Namespace) -> int:
               f"largest tilt {score['tilt_max_deg']:.1f} deg")
     elif score.get("rough_note"):
         print(f"  roughness not measured: {score['rough_note']}")
+    if score.get("motor_osc_us") is not None:
+        print(f"  motor oscillation {score['motor_osc_us']:.1f} us (SERVO_OUTPUT_RAW above the cutoff, per motor)")
+    elif score.get("motor_note"):
+        print(f"  motor oscillation not measured: {score['motor_note']}")
     filled = sum(info.get("filled", {}).values())
     if filled:
         print(f"  {filled} sample value(s) interpolated across lost packets")

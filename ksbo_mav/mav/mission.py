@@ -26,7 +26,7 @@ import numpy as np
 
 from ksbo_mav.profiles import Profile
 from ksbo_mav.scoring import ScoreConfig, score_trajectory
-from ksbo_mav.smoothness import CUTOFF_HZ, smooth_penalty, smoothness
+from ksbo_mav.smoothness import CUTOFF_HZ, motor_oscillation, smooth_penalty, smoothness
 from ksbo_task.figure8_ne import Figure8H
 
 MASK_POS_VEL_ACC = 0x0C00
@@ -133,18 +133,27 @@ class Mission:
                         laps=self.laps, rate_hz=float(self.rate_hz), lead_in=self.lead_in)
 
     # --- score -------------------------------------------------------------------------------------------
-    def lap_smoothness(self, t0_ms: int | None, att: dict[int, Any]) -> dict[str, Any] | None:
+    def lap_smoothness(self, t0_ms: int | None, att: dict[int, Any],
+                       motors: dict[float, Any] | None = None) -> dict[str, Any] | None:
         """:func:`ksbo_mav.smoothness.smoothness` of the scored lap's ATTITUDE samples (``att``: {time_boot_ms:
-        [roll, pitch, rollspeed, pitchspeed]}) of a trial started at ``t0_ms``; None for the planar task (the
-        paper's P) or without a start."""
+        [roll, pitch, rollspeed, pitchspeed]}) of a trial started at ``t0_ms``, with the
+        :func:`~ksbo_mav.smoothness.motor_oscillation` of its SERVO_OUTPUT_RAW samples (``motors``: {vehicle ms:
+        the 8 outputs}) where any were recorded; None for the planar task (the paper's P) or without a start."""
         if self.kind == "figure8-xz" or t0_ms is None:
             return None
         lo, hi = self.window
         first, last = t0_ms + (lo + 0.5) * self.dt_ms, t0_ms + (hi + 0.5) * self.dt_ms
-        stamps = sorted(t for t in att if first < t <= last)
-        rows = np.array([att[t] for t in stamps], dtype=float).reshape(-1, 4)
         cutoff = float(dict(self.score_section).get("rough_cutoff_hz") or CUTOFF_HZ)
-        return smoothness(np.asarray(stamps, dtype=float) / 1000.0, rows, cutoff)
+
+        def lap(d: dict, width: int) -> tuple[np.ndarray, np.ndarray]:
+            stamps = sorted(t for t in d if first < t <= last)
+            return (np.asarray(stamps, dtype=float) / 1000.0,
+                    np.array([d[t] for t in stamps], dtype=float).reshape(-1, width))
+
+        out = smoothness(*lap(att, 4), cutoff)
+        if motors:
+            out.update(motor_oscillation(*lap(motors, 8), cutoff))
+        return out
 
     def score(self, traj: Any, rms_ref: float | None = None, smooth: dict[str, Any] | None = None,
               rough_ref: float | None = None) -> dict[str, Any]:
@@ -158,7 +167,8 @@ class Mission:
         well it tracks, and P < 0 ("unsafe") means tracking more than ``ratio`` times worse than the baseline.
         ``smooth``: the lap's :func:`ksbo_mav.smoothness.smoothness`, recorded in the score; with the profile's
         ``smooth_weight`` w > 0 and the baseline's roughness ``rough_ref``,
-        ``P = 1 - (rms / rms_ref + w max(0, rough - rough_ref) / max(rough_ref, 0.5 deg/s)) / ratio``.
+        ``P = 1 - (rms / rms_ref + w max(0, rough - rough_ref - b r) / r) / ratio``, ``r = max(rough_ref, 0.5
+        deg/s)``, b the profile's ``rough_band``.
         """
         if self.kind == "figure8-xz":
             return score_trajectory(traj, self.score_config()).item()
@@ -192,7 +202,8 @@ class Mission:
         ref = float(ref) if ref is not None else rms
         smooth = smooth or {}
         rough = smooth.get("rough_dps")
-        penalty = smooth_penalty(rough, rough_ref, float(cfg.get("smooth_weight") or 0.0))
+        penalty = smooth_penalty(rough, rough_ref, float(cfg.get("smooth_weight") or 0.0),
+                                 float(cfg.get("rough_band") or 0.0))
         if rms is not None and ref is not None and ref > 0:
             P = 1.0 - (rms / ref + penalty) / ratio
         elif rms is not None:
@@ -203,8 +214,9 @@ class Mission:
                "L_expected": n, "complete": complete, "safe": bool(P >= 0), "samples": count,
                "rate_hz": rate, "max_gap_s": max_gap, "rough_dps": rough, "rough_ref_dps": rough_ref,
                "tilt_max_deg": smooth.get("tilt_max_deg"), "smooth_penalty": penalty}
-        if smooth.get("rough_note"):
-            out["rough_note"] = smooth["rough_note"]
+        for k in ("rough_note", "motor_osc_us", "motor_note"):
+            if k in smooth:
+                out[k] = smooth[k]
         if complete:
             out["max_err_m"] = float(d.max())
             out["rms_h_m"] = float(np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))))

@@ -89,12 +89,14 @@ class TrialRecorder:
     pos: dict[int, np.ndarray] = field(default_factory=dict)
     att: dict[int, np.ndarray] = field(default_factory=dict)
     act: dict[int, np.ndarray] = field(default_factory=dict)
+    motors: dict[float, np.ndarray] = field(default_factory=dict)  # SERVO_OUTPUT_RAW by vehicle time (ms)
     refs: dict[int, np.ndarray] = field(default_factory=dict)
     rms_ref: float | None = None
     rough_ref: float | None = None
     board: Figure8H | None = None  # the figure-8 flown on board: the reference instead of logged setpoints
     lost: int = 0  # vehicle packets lost on the link during the trial (MAVLink sequence gaps)
     _seq: dict[int, int] = field(default_factory=dict)
+    _boot_ms: int | None = None  # the vehicle's latest time_boot_ms: SERVO_OUTPUT_RAW's 32-bit µs stamp is read near it
 
     def feed(self, msg: Any, sent: bool) -> None:
         kind = msg.get_type()
@@ -115,8 +117,13 @@ class TrialRecorder:
             gap = (seq - self._seq[comp] - 1) % 256
             self.lost += gap if gap < 128 else 0  # a large "gap" is a reordered / duplicated packet, not a loss
         self._seq[comp] = seq
+        if kind in ("LOCAL_POSITION_NED", "ATTITUDE"):
+            self._boot_ms = int(msg.time_boot_ms)
         if kind == "LOCAL_POSITION_NED":
             self.pos[int(msg.time_boot_ms)] = _ned(msg)
+        elif kind == "SERVO_OUTPUT_RAW" and self._boot_ms is not None:
+            self.motors[_near_ms(int(msg.time_usec), self._boot_ms)] = np.array(
+                [getattr(msg, f"servo{i}_raw") for i in range(1, 9)], dtype=float)
         elif kind == "ATTITUDE":
             self.att[int(msg.time_boot_ms)] = np.array([msg.roll, msg.pitch, msg.rollspeed, msg.pitchspeed],
                                                        dtype=float)
@@ -212,6 +219,14 @@ class TrialRecorder:
                 "lost_packets": int(self.lost), "rms_ref": self.rms_ref,
                 "rough_ref": self.rough_ref, "on_board": self.board is not None}
         return traj, info
+
+
+def _near_ms(usec32: int, boot_ms: int) -> float:
+    """A 32-bit microsecond stamp (ArduPilot's wraps every 71.6 min; PX4's and ours are truncated to 32 bits on
+    the wire) as vehicle milliseconds: the value of that residue nearest ``boot_ms``."""
+    span = 1 << 32
+    off = (usec32 - boot_ms * 1000) % span
+    return boot_ms + (off - span if off >= span // 2 else off) / 1000.0
 
 
 def _ned(msg: Any) -> np.ndarray:

@@ -59,7 +59,7 @@ def score_trial(mission: Mission, flown: FlownTrial) -> ScoredTrial:
         traj, info = rec.trajectory("mavlink")
     else:
         traj, info = _empty_trajectory(), {"L": 0, "outcome": outcome}
-    score = mission.score(traj, rms_ref=info.get("rms_ref"), smooth=mission.lap_smoothness(rec.t0, rec.att),
+    score = mission.score(traj, rms_ref=info.get("rms_ref"), smooth=mission.lap_smoothness(rec.t0, rec.att, rec.motors),
                           rough_ref=info.get("rough_ref"))
     if outcome is T.OK and not score["complete"]:
         # Not the gains' fault: the lap could not be measured. Say why, and whether packets were lost.

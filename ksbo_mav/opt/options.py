@@ -50,6 +50,7 @@ OPTIONS: dict[str, tuple[Constraint, str]] = {
     "censor_aborts": (BOOL, "aborted and crashed trials feed the failure model, never the GPs as values"),
     "learn_safety_scale": (BOOL, "learn the safety GP's per-dimension lengthscales by marginal likelihood"),
     "trust_region": (BOOL, "keep candidates in a box around the incumbent that follows the outcomes"),
+    "tr_success": (Interval(1, None, integer=True), "the trust region doubles after this many new incumbents"),
     "max_aborts": (Interval(0, None, integer=True, none=True), "end the run after this many failed trials"),
     "backup_beta": (_POS_OR_NONE, "beta under which the backup may cover an uncertified trial (null: never)"),
     "refly_last": (_COUNT, "the last this many evaluations re-fly the best candidates (at most a tenth)"),

@@ -86,6 +86,11 @@ class Copter3D:
         self.reset()
 
     # --- parameters -------------------------------------------------------------------------------------
+    @property
+    def thrust_max(self) -> float:
+        """N, one motor's static thrust at full command: the MAVLink endpoint's SERVO_OUTPUT_RAW scale."""
+        return float(self.af.thrust_max)
+
     def param_specs(self) -> list[ParamSpec]:
         return list(self._specs)
 
