@@ -140,7 +140,7 @@ class ScoreSpec:
     when set: a fixed reference), so the baseline scores ``1 - 1/unsafe_rms_ratio`` and P < 0 means tracking more
     than ``unsafe_rms_ratio`` times worse than the baseline. ``smooth_weight`` (w, default 0: off) adds the
     smoothness term, ``P = 1 - (RMS / RMS_ref + w max(0, rough - rough_ref - b r) / r) / unsafe_rms_ratio``,
-    ``r = max(rough_ref, 0.5)``, with rough the lap's body-rate roughness (deg/s) above ``rough_cutoff_hz``, rough_ref
+    ``r = max(rough_ref, 1)``, with rough the lap's body-rate roughness (deg/s) above ``rough_cutoff_hz``, rough_ref
     the baseline flight's and b ``rough_band`` (default 0: the measure's own scatter, a fraction of r;
     :mod:`ksbo_mav.smoothness`). New score keys are new fields here.
     """

@@ -89,3 +89,22 @@ def test_a_fallback_never_counts_towards_stopping():
     assert StopCheck(3, "ucb", 0.0, 0.02, 0.02).below
     rule.checks.append(StopCheck(1, "ucb", 0.0, 0.02, 0.02))
     assert rule.summary(10)["checks"][0]["kind"] == "ucb"
+
+
+def test_the_check_after_the_search_box_grew_never_counts_towards_stopping():
+    assert not StopCheck(3, "ucb", 0.0, 0.02, 0.02, box_grew=True).below
+
+    def rising(x: np.ndarray) -> float:  # better past the first box's upper edge in x[0], where it starts
+        return float(min(0.3 + 0.2 * x[0] - 0.1 * (x[1] - 0.5) ** 2, 1.0))
+
+    x0 = np.array([0.97, 0.5])
+    X = np.clip(x0 + 0.05 * np.random.default_rng(0).standard_normal((12, 2)), 0.0, 1.0)
+    r = optimize(rising, x0, BOUNDS, budget=30, method="ksbo-adaptive", seed=0, prior=(X, [rising(x) for x in X]),
+                 signal_std=1.0, y_max=1.0, early_stop={"min_evals": 2, "noise": 0.01},
+                 limits=np.array([[0.0, 3.0], [0.0, 1.0]]))
+    checks, growth = r.info["stop"]["checks"], r.info["box"]["growth"]
+    assert [g["dim"] for g in growth] == [0]  # the box grew along x[0] ...
+    grew = [c for c in checks if c["box_grew"]]
+    assert len(grew) == 1 and grew[0]["gain"] < grew[0]["threshold"]  # ... and the check after it was below ...
+    assert len(r.y) > grew[0]["after"] >= 2  # ... past the minimum, yet the search went on into the new room
+    assert r.X[-1][0] > 1.0

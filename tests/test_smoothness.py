@@ -45,7 +45,7 @@ def test_the_penalty_counts_only_roughness_beyond_the_baselines():
     assert smooth_penalty(1.0, 2.0, 0.5) == 0.0  # smoother than the baseline: no reward, tracking decides
     assert smooth_penalty(3.0, None, 0.5) == smooth_penalty(None, 2.0, 0.5) == smooth_penalty(3.0, 2.0, 0.0) == 0.0
     assert smooth_penalty(3.0, 2.0, 0.5, band=0.15) == pytest.approx(0.5 * (1.0 - 0.3) / 2.0)  # past the band
-    assert smooth_penalty(0.6, 0.1, 0.5, band=0.15) == pytest.approx(0.5 * (0.5 - 0.075) / 0.5)  # the floor
+    assert smooth_penalty(1.6, 0.1, 0.5, band=0.15) == pytest.approx(0.5 * (1.5 - 0.15) / 1.0)  # the floor, 1 deg/s
 
 
 def test_the_copter_score_keeps_the_baseline_at_one_half_and_charges_a_rough_lap():

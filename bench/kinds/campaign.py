@@ -146,7 +146,8 @@ def _run(key: dict[str, Any], inp: dict[str, Any], work: Path) -> dict[str, Any]
         out = json.loads((d / "result.json").read_text()) if (d / "result.json").exists() else {}
         kinds = {k: sum(e["kind"] == k for e in entries) for k in sorted({e["kind"] for e in entries})}
         result.update(rc=r.returncode, rms_per_flight=[round(e["rms"], 4) if e.get("rms") else None for e in entries],
-                      search_end=out.get("search_end"), **console_figures(r.stderr))
+                      rough_per_flight=[round(e["rough"], 3) if e.get("rough") else None for e in entries],
+                      box=out.get("box"), search_end=out.get("search_end"), **console_figures(r.stderr))
         if r.returncode not in (0, 3):
             result["error"] = (r.stderr.strip().splitlines() or ["?"])[-1][:300]
         best = out.get("best")

@@ -10,7 +10,7 @@ import statistics
 from typing import Any
 
 from ksbo_bench.report.describe import condition, vehicle
-from ksbo_mav.smoothness import smooth_penalty
+from ksbo_mav.smoothness import FLOOR_DPS, smooth_penalty
 
 #: The copter profiles' score constants (params/*-copter.toml [score]).
 RATIO, WEIGHT, BAND = 2.0, 0.5, 0.15
@@ -26,11 +26,28 @@ def _score(rms: float, rms0: float, rough: float | None, rough0: float | None) -
     return 1.0 - (rms / rms0 + smooth_penalty(rough, rough0, WEIGHT, BAND)) / RATIO
 
 
+#: The validation manoeuvres a cell may fly beside the figure-8, with the figure each is judged by
+#: (ksbo_mav.mav.validation.manoeuvre_spec.HEADLINE) and its heading.
+MANOEUVRES = {"hold": ("hold_rms_m", "hold RMS (m)"), "steps": ("settle_s_mean", "step settling (s)"),
+              "auto_mission": ("xtrack_rms_m", "AUTO cross-track RMS (m)")}
+
+
+def _manoeuvres(mine: list[dict[str, Any]]) -> dict[str, float | None]:
+    """{manoeuvre: mean of its headline figure over the flights that ended ok} for the manoeuvres flown."""
+    out = {}
+    for way, (figure, _) in MANOEUVRES.items():
+        flown = [r for r in mine if r.get("way") == way]
+        if flown:
+            out[way] = _mean([r.get("metrics") or {} for r in flown if r.get("outcome") == "ok"], figure)
+    return out
+
+
 def summary(rec: dict[str, Any]) -> list[dict[str, Any]]:
-    """Per gain set: {set, gains, rms, rough, motor, tilt, n, bad, P, P_track}; P from the means, against the
-    baseline's."""
+    """Per gain set: {set, gains, rms, rough, motor, tilt, n, bad, P, P_track, manoeuvres}; P from the figure-8
+    flights' means against the baseline's; manoeuvres: :func:`_manoeuvres`."""
     res = rec["result"]
-    rows = res["flights"]
+    all_rows = res["flights"]
+    rows = [r for r in all_rows if r.get("way") not in MANOEUVRES]  # the figure-8 flights
     base = [r for r in rows if r["set"] == "baseline" and r.get("outcome") == "ok"]
     rms0, rough0 = _mean(base, "rms"), _mean(base, "rough")
     out = []
@@ -43,7 +60,8 @@ def summary(rec: dict[str, Any]) -> list[dict[str, Any]]:
         if rms is not None and rms0 and len(ok) == len(mine):  # a set with an aborted flight is no candidate
             P_track, P = _score(rms, rms0, None, None), _score(rms, rms0, rough, rough0)
         out.append({"set": name, "gains": gains, "rms": rms, "rough": rough, "motor": motor, "tilt": tilt,
-                    "n": len(mine), "bad": len(mine) - len(ok), "P": P, "P_track": P_track})
+                    "n": len(mine), "bad": len(mine) - len(ok), "P": P, "P_track": P_track,
+                    "manoeuvres": _manoeuvres([r for r in all_rows if r["set"] == name])})
     return out
 
 
@@ -72,12 +90,13 @@ def cell(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> list[st
     rows = summary(rec)
     axes = [p for p in ranges if any(p in r["gains"] for r in rows)]
     motors = any(r["motor"] is not None for r in rows)  # SERVO_OUTPUT_RAW streamed in the cell
+    flown = [w for w in MANOEUVRES if any(w in r["manoeuvres"] for r in rows)]
     head = ("| set | " + " | ".join(axes) + " | flights | lap RMS (m) | roughness (deg/s) | "
-            + ("motor oscillation (µs) | " if motors else "") + "largest tilt (deg) | P, tracking alone | "
-            "P (with smoothness) |")
+            + ("motor oscillation (µs) | " if motors else "") + "largest tilt (deg) | "
+            + "".join(f"{MANOEUVRES[w][1]} | " for w in flown) + "P, tracking alone | P (with smoothness) |")
     caption = (f"**{vehicle(k)}, {k.get('condition') or condition(k)}, {k.get('reps', 3)} flight(s) per set, "
                f"{(rec.get('run', {}).get('started') or '')[:10]}**")
-    out = [head, "|" + "---|" * (len(axes) + 6 + motors)]
+    out = [head, "|" + "---|" * (len(axes) + 6 + motors + len(flown))]
     fmt = lambda v, s: "–" if v is None else format(v, s)  # noqa: E731
     scored = [r for r in rows if r["P"] is not None]
     best = max(scored, key=lambda r: r["P"]) if scored else None
@@ -87,7 +106,8 @@ def cell(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> list[st
         out.append(f"| {mark}{r['set']}{mark} | " + " | ".join(fmt(r["gains"].get(p), "g") for p in axes)
                    + f" | {r['n']}{bad} | {fmt(r['rms'], '.3f')} | {fmt(r['rough'], '.2f')} | "
                    + (f"{fmt(r['motor'], '.1f')} | " if motors else "")
-                   + f"{fmt(r['tilt'], '.1f')} | {fmt(r['P_track'], '.3f')} | {mark}{fmt(r['P'], '.3f')}{mark} |")
+                   + f"{fmt(r['tilt'], '.1f')} | " + "".join(f"{fmt(r['manoeuvres'].get(w), '.2f')} | " for w in flown)
+                   + f"{fmt(r['P_track'], '.3f')} | {mark}{fmt(r['P'], '.3f')}{mark} |")
     return [caption, "\n".join(out)]
 
 
@@ -126,7 +146,7 @@ def report(sw, recs: list[dict[str, Any]]) -> list[str]:
     out = [*head, *cells]
     out.append(f"P from each set's mean lap RMS and roughness against the baseline's in the same cell: P = 1 - (RMS / "
                f"RMS_base + {WEIGHT:g} max(0, rough - rough_base - {BAND:g} r) / r) / {RATIO:g}, r = max(rough_base, "
-               "0.5) (the copter "
+               f"{FLOOR_DPS:g}) (the copter "
                "profiles' score); a set with a flight that did not end ok is no candidate.")
     return out
 
@@ -164,12 +184,13 @@ def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
     """The default campaign's cells against the long campaign flown on the same vehicle in the same condition (label
     long, the oracle by search): flights, safety, the re-flown baseline and recommendation (lap RMS, roughness,
     motor oscillation where measured), the
-    recommendation's cut and its share of the long campaign's, its score, and the grid oracle's P where one was
+    recommendation's cut and its share of the oracle's (the reference the cell re-flew beside it: the long
+    campaign's recommendation, or a grid oracle's best set), its score, and the grid oracle's P where one was
     flown (oracle-copter3d)."""
     motors = any(r["result"].get("reflown_motor") for r in recs)
     out = ["| vehicle | campaign | seed | flights | aborted | crashed | P < 0 | baseline RMS (m) / roughness | "
            "recommendation RMS (m) / roughness | " + ("motor oscillation, baseline / recommendation (µs) | " * motors)
-           + "cut | share of the long campaign's cut | P |", "|" + "---|" * (12 + motors)]
+           + "cut | share of the oracle's cut | P |", "|" + "---|" * (12 + motors)]
     longs = {_where(r): r for r in recs if r["key"].get("label") == "long"}
     grid = None
     for rec in sorted(recs, key=lambda r: (_where(r), r["key"].get("label") == "long", r["key"].get("seed", 0))):
@@ -179,11 +200,12 @@ def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
         cut = 1.0 - m["rec"] / m["baseline"] if "rec" in m else None
         ref = longs.get(_where(rec))
         share = "–"
-        if rec["result"].get("share_of_long") is not None:  # the long campaign's gains re-flown beside these
-            share = f"{rec['result']['share_of_long']:.0%}"
+        if rec["result"].get("share_of_long") is not None:  # the reference's gains re-flown beside these
+            which = "grid" if "gains" in (rec["key"].get("reference") or {}) else "long"
+            share = f"{rec['result']['share_of_long']:.0%} ({which})"
         elif ref is not None and ref is not rec and cut is not None:
             lm = _refly_means(ref)[0]
-            share = f"{cut / (1.0 - lm['rec'] / lm['baseline']):.0%}"
+            share = f"{cut / (1.0 - lm['rec'] / lm['baseline']):.0%} (long)"
         grid = grid or (_oracle_P(rec["key"]["condition"]) if rec["key"].get("condition") else None)
         out.append(f"| {vehicle(rec['key'])} {condition(rec['key'])} | {rec['key'].get('label', 'default')} | "
                    f"{rec['key'].get('seed')} | {rec['flights']['total']} | {saf.get('aborted')} | "
@@ -194,10 +216,11 @@ def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
                    f"{'–' if P is None else f'{P:.3f}'} |")
     out = ["\n".join(out)]
     out.append("Cut: 1 − the recommendation's mean re-flown lap RMS / the baseline's, both re-flown in turn on the "
-               "vehicle the campaign left hovering; share: that cut over the long campaign's (label long, the same "
-               "vehicle and condition), the oracle by search: its recommendation re-flown in turn with the two where "
-               "the cell names it as reference, else its own re-flights. P: the score with the smoothness term from "
-               "the re-flown means (the baseline scores 0.5).")
+               "vehicle the campaign left hovering; share: that cut over the oracle's, re-flown in turn with the two: "
+               "(grid) the oracle grid's best set the cell names as its reference, (long) the long campaign's "
+               "recommendation (label long, the same vehicle and condition; its own re-flights where the cell names "
+               "no reference). P: the score with the smoothness term from the re-flown means (the baseline scores "
+               "0.5).")
     if grid:
         out.append(f"The grid oracle (oracle-copter3d, the same condition, two gains): {grid[0]}, P {grid[1]:.3f}.")
     return out

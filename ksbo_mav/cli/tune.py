@@ -121,9 +121,12 @@ class Display:
         f = e.flight
         mark = "ok" if f.outcome == "ok" else f"ABORT {f.outcome}"
         # The trial's role in the report's words (baseline, re-flight of trial 6, ...), then P and the counts:
-        # P < 0 / aborted by the monitor / crashed / failed (not the gains).
+        # P < 0 / aborted by the monitor / crashed / failed (not the gains); on a 3-D figure-8 what P is made of.
+        rms, rough = f.score.get("rms_lap2_m"), f.score.get("rough_dps")
+        made_of = (f"  (lap {rms:.3f} m" + ("" if rough is None else f", rough {rough:.2f} deg/s") + ")"
+                   if rms is not None else "")
         self.console.print(f"trial {f.meta['trial']:3d} {e.role:<21} P {f.P:+.4f} {mark:<12} best {e.best_P:+.4f}  "
-                           f"P<0 {e.n_unsafe} abort {e.n_aborted} crash {e.n_crashed} fail {e.n_failed}",
+                           f"P<0 {e.n_unsafe} abort {e.n_aborted} crash {e.n_crashed} fail {e.n_failed}{made_of}",
                            highlight=False, markup=False, soft_wrap=True)
         if self.task is not None:
             self.progress.update(self.task, completed=e.n_opt, status=f"best P {e.best_P:+.4f}")

@@ -167,7 +167,7 @@ class Mission:
         well it tracks, and P < 0 ("unsafe") means tracking more than ``ratio`` times worse than the baseline.
         ``smooth``: the lap's :func:`ksbo_mav.smoothness.smoothness`, recorded in the score; with the profile's
         ``smooth_weight`` w > 0 and the baseline's roughness ``rough_ref``,
-        ``P = 1 - (rms / rms_ref + w max(0, rough - rough_ref - b r) / r) / ratio``, ``r = max(rough_ref, 0.5
+        ``P = 1 - (rms / rms_ref + w max(0, rough - rough_ref - b r) / r) / ratio``, ``r = max(rough_ref, 1
         deg/s)``, b the profile's ``rough_band``.
         """
         if self.kind == "figure8-xz":

@@ -5,7 +5,8 @@
 * ``max_aborts`` is a hard cap: once that many trials of the run aborted or crashed, the run ends (no further
   trial could be guaranteed not to abort); the recommendation is made from the data.
 * The stopping rule (opt.methods.stopping), where the options turn it on, ends the search before the budget once
-  what the next proposal can gain stays below the objective's noise; the re-fly phase is then skipped.
+  what the next proposal can gain stays below the objective's noise (a check right after the growing box moved
+  never counts); the re-fly phase is then skipped.
 * The re-fly phase (opt.methods.refly) takes the last evaluations: the best candidates are re-flown (after a stress
   flight each where the objective has ``fun.stress``), and the recommendation is the one that held up.
 """
@@ -47,7 +48,9 @@ def run_safe_bo(problem: Problem, bo: SafeBO, max_iters: int | None = None,
         else:
             p = bo.propose()
             stop = bo.stopping
-            if stop is not None and stop.should_stop(bo, bo.obs, p.x, p.kind, problem.n_evals, bo.model.noise_std):
+            grew = bo.box is not None and any(g.trial == bo.iteration for g in bo.box.history)
+            if stop is not None and stop.should_stop(bo, bo.obs, p.x, p.kind, problem.n_evals, bo.model.noise_std,
+                                                     box_grew=grew):
                 problem.stop()
                 break
         # The screen's flights go from the hardest start, the re-flights from the objective's own starts.
