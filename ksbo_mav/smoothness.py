@@ -21,10 +21,10 @@ so gains that track 20 % better but shake twice as much as the baseline (w = 0.5
 floor keeps a baseline that barely moves (a simulator without sensor noise: 0.001 deg/s) from turning a
 thousandth of a degree per second into a penalty; below about 1 deg/s roughness says how the setpoints arrive
 rather than what the gains do (the same gains on ArduCopter SITL in turbulent wind: 1.3-1.5 deg/s with the
-figure-8 streamed at 50 Hz, 0.45-0.7 deg/s flown on board). The band b (profile ``[score] rough_band``, a fraction of r) is
-the roughness measure's own scatter: the same gains flown twice differ by up to 10-17 % in roughness (ArduCopter
-SITL in turbulent wind, benchmarks/notes/smooth-gains.md), and a term charging that much would score the flight,
-not the gains.
+figure-8 streamed at 50 Hz, 0.45-0.7 deg/s flown on board). The band b (profile ``[score] rough_band``, a
+fraction of r) is the roughness measure's own scatter: the same gains flown twice differed by up to 16 % in
+roughness (ArduCopter SITL in turbulent wind, benchmarks/notes/smooth-gains.md), and a term charging that much
+would score the flight, not the gains.
 
 What the motors do is measured too where the vehicle streams SERVO_OUTPUT_RAW fast enough (what a flight
 controller engineer reads from RCOU): the motor oscillation, recorded beside the roughness, not scored,
@@ -44,8 +44,8 @@ import numpy as np
 
 #: High-pass cutoff (Hz) of the body rates: above the figure-8's manoeuvring, below what telemetry carries.
 CUTOFF_HZ = 2.0
-#: Roughness (deg/s) below which a baseline counts as this smooth: what a real IMU's attitude telemetry carries
-#: at rest, at the least.
+#: Roughness (deg/s) below which a baseline counts as this smooth: below it the figure reflects how the setpoints
+#: reach the vehicle more than what its gains do (module docstring).
 FLOOR_DPS = 1.0
 #: Samples per cutoff period the attitude stream must deliver for the roughness to be measured.
 MIN_SAMPLES_PER_PERIOD = 4.0

@@ -37,7 +37,7 @@ def test_an_unknown_option_is_refused_with_the_list_of_options_one_line_each(tmp
     assert r.returncode == 2 and "Traceback" not in r.stderr and not d.exists()
     lines = r.stderr.strip().splitlines()
     assert lines[0] == "error: unknown option(s) bogus; the options are:"
-    assert len(lines) == 36 and lines[1].split()[0] == "beta" and any(ln.split()[0] == "backup_beta" for ln in lines)
+    assert len(lines) == 37 and lines[1].split()[0] == "beta" and any(ln.split()[0] == "backup_beta" for ln in lines)
 
 
 def test_demo_refuses_a_bad_method_before_starting_the_simulator(tmp_path):
@@ -164,6 +164,8 @@ def test_plan_names_the_options_the_profile_implies_and_the_users():
     assert CampaignConfig(dir="x").method == "ksbo-adaptive"  # the tune default
     note = options_note(CampaignConfig(dir="x", options={"max_aborts": 4}), ap)
     assert "backup_beta=0.5 (profile: the backup covers its trials)" in note and "max_aborts=4" in note
-    assert options_note(CampaignConfig(dir="x", options={"backup_beta": 1.0}), ap) == "; options backup_beta=1.0"
+    assert "tr_success=1 (profile: the backup covers its trials)" in note  # the trust region's faster pace too
+    assert options_note(CampaignConfig(dir="x", options={"backup_beta": 1.0, "tr_success": 2}), ap) == \
+        "; options backup_beta=1.0, tr_success=2"
     assert options_note(CampaignConfig(dir="x"), planar) == ""
     assert options_note(CampaignConfig(dir="x", method="ksbo"), ap) == ""

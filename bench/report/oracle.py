@@ -28,14 +28,14 @@ def _score(rms: float, rms0: float, rough: float | None, rough0: float | None) -
 
 #: The validation manoeuvres a cell may fly beside the figure-8, with the figure each is judged by
 #: (ksbo_mav.mav.validation.manoeuvre_spec.HEADLINE) and its heading.
-MANOEUVRES = {"hold": ("hold_rms_m", "hold RMS (m)"), "steps": ("settle_s_mean", "step settling (s)"),
-              "auto_mission": ("xtrack_rms_m", "AUTO cross-track RMS (m)")}
+MANOEUVRES = {"hold": ("hold_rms_m", "hold RMS (m)", ".3f"), "steps": ("settle_s_mean", "step settling (s)", ".2f"),
+              "auto_mission": ("xtrack_rms_m", "AUTO cross-track RMS (m)", ".3f")}
 
 
 def _manoeuvres(mine: list[dict[str, Any]]) -> dict[str, float | None]:
     """{manoeuvre: mean of its headline figure over the flights that ended ok} for the manoeuvres flown."""
     out = {}
-    for way, (figure, _) in MANOEUVRES.items():
+    for way, (figure, _, _) in MANOEUVRES.items():
         flown = [r for r in mine if r.get("way") == way]
         if flown:
             out[way] = _mean([r.get("metrics") or {} for r in flown if r.get("outcome") == "ok"], figure)
@@ -106,7 +106,8 @@ def cell(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> list[st
         out.append(f"| {mark}{r['set']}{mark} | " + " | ".join(fmt(r["gains"].get(p), "g") for p in axes)
                    + f" | {r['n']}{bad} | {fmt(r['rms'], '.3f')} | {fmt(r['rough'], '.2f')} | "
                    + (f"{fmt(r['motor'], '.1f')} | " if motors else "")
-                   + f"{fmt(r['tilt'], '.1f')} | " + "".join(f"{fmt(r['manoeuvres'].get(w), '.2f')} | " for w in flown)
+                   + f"{fmt(r['tilt'], '.1f')} | "
+                   + "".join(f"{fmt(r['manoeuvres'].get(w), MANOEUVRES[w][2])} | " for w in flown)
                    + f"{fmt(r['P_track'], '.3f')} | {mark}{fmt(r['P'], '.3f')}{mark} |")
     return [caption, "\n".join(out)]
 
@@ -174,6 +175,10 @@ def _refly_means(rec: dict[str, Any]) -> tuple[dict[str, float], dict[str, float
     return means(res.get("reflown", {})), means(res.get("reflown_rough", {})), means(res.get("reflown_motor", {}))
 
 
+def _or_dash(v: float | None, spec: str = ".1f") -> str:
+    return "–" if v is None or v != v else format(v, spec)
+
+
 def _where(rec: dict[str, Any]) -> tuple:
     """The vehicle and condition a campaign record flew in (its long campaign is the one with the same)."""
     k = rec["key"]
@@ -211,7 +216,7 @@ def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
                    f"{rec['key'].get('seed')} | {rec['flights']['total']} | {saf.get('aborted')} | "
                    f"{saf.get('crashed')} | {saf.get('unsafe')} | {m['baseline']:.3f} / {g.get('baseline', 0):.2f} | "
                    f"{m['rec']:.3f} / {g.get('rec', 0):.2f} | "
-                   + (f"{mo.get('baseline', float('nan')):.1f} / {mo.get('rec', float('nan')):.1f} | " * motors)
+                   + (f"{_or_dash(mo.get('baseline'))} / {_or_dash(mo.get('rec'))} | " * motors)
                    + f"{'–' if cut is None else f'{cut:.0%}'} | {share} | "
                    f"{'–' if P is None else f'{P:.3f}'} |")
     out = ["\n".join(out)]
