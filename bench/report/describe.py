@@ -29,6 +29,10 @@ def condition(key: dict[str, Any]) -> str:
     if sp.get("SIM_WIND_SPD"):
         turb = sp.get("SIM_WIND_TURB")
         out.append(f"wind {sp['SIM_WIND_SPD']:g} m/s" + (f" (turbulence {turb:g})" if turb else ""))
+    if sp.get("SIM_GYR1_RND") or sp.get("SIM_ACC1_RND"):  # ArduPilot SITL's sensor noise
+        gps = f", GPS at {sp['SIM_GPS1_HZ']:g} Hz" if sp.get("SIM_GPS1_HZ") else ""
+        out.append(f"sensor noise (gyros {sp.get('SIM_GYR1_RND', 0):g} deg/s, accelerometers "
+                   f"{sp.get('SIM_ACC1_RND', 0):g} m/s²{gps})")
     if key.get("change_params", {}).get("SIM_WIND_SPD"):
         out.append(f"wind 0 → {key['change_params']['SIM_WIND_SPD']:g} m/s at trial {key['change_at']}")
     out += _sim_args(key.get("sim_args", []))
