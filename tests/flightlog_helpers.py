@@ -43,7 +43,8 @@ def on_ground(p: np.ndarray) -> np.ndarray:
 H_RMS = math.sqrt((EH[0] ** 2 + EH[1] ** 2) / 2)
 
 
-_CONV = {"Q": "Q", "f": "f", "B": "B", "M": "B", "b": "b", "I": "I", "Z": "64s", "N": "16s", "n": "4s", "h": "h"}
+_CONV = {"Q": "Q", "f": "f", "B": "B", "M": "B", "b": "b", "I": "I", "Z": "64s", "N": "16s", "n": "4s", "h": "h",
+         "H": "H"}
 
 
 class DFWriter:
@@ -68,9 +69,11 @@ class DFWriter:
 
 
 def write_bin(path: Path, laps: float = 2.0, log_bitmask: int = 180222, psc: bool = True, guided: bool = True,
-              markers: bool | str = False, err_scale: float = 1.0) -> Path:
+              markers: bool | str = False, err_scale: float = 1.0, motor_shake_us: float | None = None) -> Path:
     """``markers``: log the tuner's start marker, True as ArduPilot logs another system's STATUSTEXT
-    (``SRC=245/191:``) or the prefix given (``GCS:``, the sender being ``MAV_GCS_SYSID``)."""
+    (``SRC=245/191:``) or the prefix given (``GCS:``, the sender being ``MAV_GCS_SYSID``). ``motor_shake_us``: log
+    RCOU at 50 Hz, four motors around 1500 µs with this amplitude at 7 Hz on top of a slow throttle change (C5-C8
+    unused, 0)."""
     w = DFWriter()
     w.define(32, "PARM", "QNff", "TimeUS,Name,Value,Default")
     w.define(120, "MODE", "QMBB", "TimeUS,Mode,ModeNum,Rsn")
@@ -81,6 +84,8 @@ def write_bin(path: Path, laps: float = 2.0, log_bitmask: int = 180222, psc: boo
                  f"TimeUS,DP{ax},TP{ax},P{ax},DV{ax},TV{ax},V{ax},DA{ax},TA{ax},A{ax}")
     w.define(8, "GUIP", "QBfffbffffff", "TimeUS,Type,pX,pY,pZ,Terrain,vX,vY,vZ,aX,aY,aZ")
     w.define(11, "IMU", "Qffffff", "TimeUS,GyrX,GyrY,GyrZ,AccX,AccY,AccZ")  # filler the reader must skip
+    if motor_shake_us is not None:
+        w.define(9, "RCOU", "QHHHHHHHH", "TimeUS,C1,C2,C3,C4,C5,C6,C7,C8")
     us = lambda t: int(round(t * 1e6))  # noqa: E731
     w.msg("PARM", us(1.0), "LOG_BITMASK", float(log_bitmask), 180222.0)
     w.msg("MSG", us(1.0), "ArduCopter V4.7.0-dev (synthetic)")
@@ -101,6 +106,9 @@ def write_bin(path: Path, laps: float = 2.0, log_bitmask: int = 180222, psc: boo
             else:
                 w.msg("ARM", us(t), 0, 0, 0, 13)
         w.msg("IMU", us(t), 0.0, 0.0, 0.0, 0.0, 0.0, -9.8)
+        if motor_shake_us is not None:
+            slow, shake = 1500 + 60 * math.sin(2 * math.pi * t / 20.0), motor_shake_us * math.sin(2 * math.pi * 7 * t)
+            w.msg("RCOU", us(t), *(int(round(slow + sg * shake)) for sg in (1, -1, 1, -1)), 0, 0, 0, 0)
         if k % 5 == 0 and psc and T_GUIDED <= t <= T_LAND and log_bitmask & (1 << 5):
             p, v = target(t, laps)
             a = p + error([t], err_scale)[0]

@@ -117,6 +117,7 @@ def test_ardupilot_bin_and_client_tlog_agree(ardupilot_sitl, tmp_path, capsys):
     assert a["format"] == "bin" and "PSCN" in a["target_source"]
     assert b["format"] == "tlog" and b["target_source"].startswith("POSITION_TARGET_LOCAL_NED")
     assert _figure8(a)["laps"][1]["vs_reference"]["h_rms_m"] < 0.5  # fact sheet 8: ~0.2-0.26 m
+    assert 0 < _figure8(a)["laps"][1]["motor_osc_us"] < 50  # RCOU, logged by the default LOG_BITMASK
     # The same flight's .BIN cut inside the figure-8 is refused in one line.
     assert "segment 1" in _truncated(capsys, tmp_path, binlog, "cut.BIN")
     # and compare puts the onboard log and the client's tlog side by side

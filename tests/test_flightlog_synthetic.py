@@ -52,6 +52,19 @@ def test_bin_detected_by_content_and_scored_per_lap(tmp_path, capsys, name):
     assert sc["P"] == pytest.approx(0.5)  # a flight without a campaign reference is its own reference
 
 
+def test_a_bin_with_rcou_gives_each_laps_motor_oscillation(tmp_path, capsys):
+    rc, out, err = score_json(capsys, write_bin(tmp_path / "rcou.bin", motor_shake_us=20.0))
+    assert rc == 0, err
+    laps = out["segments"][0]["figure8"]["laps"]
+    assert len(laps) == 2 and all(lap["motor_osc_us"] == pytest.approx(20.0 / np.sqrt(2), rel=0.05) for lap in laps)
+    rc, out, err = score_json(capsys, write_bin(tmp_path / "calm.bin", motor_shake_us=0.0))
+    assert all(lap["motor_osc_us"] < 0.5 for lap in out["segments"][0]["figure8"]["laps"])  # the slow throttle: none
+    rc, out, err = score_json(capsys, write_bin(tmp_path / "none.bin"))  # no RCOU logged: nothing said
+    assert all("motor_osc_us" not in lap for lap in out["segments"][0]["figure8"]["laps"])
+    assert main(["score", str(tmp_path / "rcou.bin")]) == 0
+    assert "motor oscillation 14." in capsys.readouterr().out
+
+
 def test_rms_ref_makes_p_comparable(tmp_path, capsys):
     path = write_bin(tmp_path / "a.bin", err_scale=0.5)
     rc, out, _ = score_json(capsys, path, "--rms-ref", np.hypot(H_RMS, EV))

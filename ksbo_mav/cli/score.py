@@ -138,8 +138,9 @@ def _figure8_lines(f8: dict[str, Any]) -> list[str]:
     lines = [f"  figure-8 ({f8['profile']} mission) from t={f8['t0_s']:.3f} s, {f8['laps_flown']:.2f} laps, "
              f"offset NED ({off}) m" + ("  [trial marker]" if f8["marker"] else "")]
     for lap in f8["laps"]:
+        motors = "" if lap.get("motor_osc_us") is None else f", motor oscillation {lap['motor_osc_us']:.1f} us"
         lines.append(f"    lap {lap['lap']}: vs target {_stats(lap['vs_target'])}  |  vs reference "
-                     f"{_stats(lap['vs_reference'])}  (RMS/max m)")
+                     f"{_stats(lap['vs_reference'])}  (RMS/max m){motors}")
     sc = f8["score"]
     if sc.get("P") is None:
         lines.append(f"    P: n/a ({sc.get('reason')})")

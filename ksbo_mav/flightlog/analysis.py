@@ -27,6 +27,7 @@ from ksbo_mav.flightlog.figure8_fit import Fit, _ref_marker, recognise_figure8, 
 from ksbo_mav.flightlog.model import FlightLog, Segment
 from ksbo_mav.flightlog.segments import find_segments as _find
 from ksbo_mav.flightlog.spectrum import error_spectrum, summary
+from ksbo_mav.smoothness import motor_oscillation
 
 
 
@@ -183,8 +184,14 @@ def figure8_entry(log: FlightLog, fit: Fit, mission, profile_name: str | None,
     laps = []
     for k in range(max(n_laps, 0)):
         a, b = fit.t0 + k * T, fit.t0 + (k + 1) * T
-        laps.append({"lap": k + 1, "t_start_s": a, "vs_target": error_stats(vs_target(log, a, b)[1]),
-                     "vs_reference": error_stats(_vs_ref(log, fit, mission, a, b)[1])})
+        lap = {"lap": k + 1, "t_start_s": a, "vs_target": error_stats(vs_target(log, a, b)[1]),
+               "vs_reference": error_stats(_vs_ref(log, fit, mission, a, b)[1])}
+        if log.outputs is not None:  # what the motors did in the lap (ksbo_mav.smoothness)
+            m = motor_oscillation(*log.outputs.window(a, b))
+            lap["motor_osc_us"] = m["motor_osc_us"]
+            if m.get("motor_note"):
+                lap["motor_note"] = m["motor_note"]
+        laps.append(lap)
     return {"t0_s": fit.t0, "t_end_s": fit.t_end, "laps_flown": (fit.t_end - fit.t0) / T, "laps": laps,
             "offset_m": [float(x) for x in fit.offset], "fit_rms_m": fit.fit_rms, "marker": fit.marker,
             "mission": {"period_s": T, "north_m": mission.scale, "east_m": mission.scale2,

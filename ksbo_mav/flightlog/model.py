@@ -71,6 +71,21 @@ def _interp(ts: np.ndarray, ys: np.ndarray, t: np.ndarray, max_gap: float) -> np
 
 
 @dataclass
+class Outputs:
+    """The autopilot's servo/motor outputs (µs) at times ``t`` (s, vehicle clock): ``pwm`` (n, k), a column a
+    channel, as logged (ArduPilot ``RCOU`` C1..). :func:`ksbo_mav.smoothness.motor_oscillation` reads them."""
+
+    t: np.ndarray
+    pwm: np.ndarray
+    label: str = ""
+
+    def window(self, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray]:
+        """(times, outputs) with ``t0 <= t < t1``."""
+        sel = (self.t >= t0) & (self.t < t1)
+        return self.t[sel], self.pwm[sel]
+
+
+@dataclass
 class ModeChange:
     t: float
     name: str
@@ -100,6 +115,7 @@ class FlightLog:
     markers: list[Marker] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
+    outputs: Outputs | None = None  # the motor outputs where the log has them (ArduPilot RCOU)
     truncated_at: float | None = None  # vehicle time of the last complete sample before a cut, if the file is cut
     skipped: list = field(default_factory=list)  # damaged spans the reader skipped (Skipped)
 

@@ -26,7 +26,7 @@ from ksbo_mav.flightlog.bin_sources import WANTED as SOURCES
 from ksbo_mav.flightlog.bin_sources import position_tracks
 from ksbo_mav.flightlog.dataflash import read_dataflash
 from ksbo_mav.flightlog.detect import detect_format
-from ksbo_mav.flightlog.model import FlightLog, Marker, ModeChange, Track
+from ksbo_mav.flightlog.model import FlightLog, Marker, ModeChange, Outputs, Track
 from ksbo_mav.flightlog.modes import COPTER_MODES, COPTER_TRACKING, ardupilot_mode, vehicle_from_text  # noqa: F401
 from ksbo_mav.flightlog.tlogs import read_any_tlog
 from ksbo_mav.flightlog.ulog import read_ulg
@@ -48,7 +48,7 @@ def read_log(path: str | Path, partial: bool = False) -> FlightLog:
 
 
 # --- ArduPilot DataFlash ------------------------------------------------------------------------------------------
-BIN_WANTED = {"GUIP", "MODE", "MSG", "PARM", "ARM", "EV"} | SOURCES
+BIN_WANTED = {"GUIP", "MODE", "MSG", "PARM", "ARM", "EV", "RCOU"} | SOURCES
 EV_ARMED, EV_DISARMED = 10, 11  # DataFlash EV ids (logs without ARM messages)
 
 
@@ -127,10 +127,22 @@ def read_bin(p: Path, partial: bool = False) -> FlightLog:
                               "ascii", "replace"), float(r["Value"])) for r in c.data.get("PARM", ())],
                           "end_offset": c.end})
     log.skipped = c.extra["skipped"]
+    log.outputs = _bin_outputs(c)
     if c.truncated:
         log.truncated_at = float(t[-1]) if n else None
         log.info["truncated"] = f"ends inside a message at offset {c.end} of {c.size}"
     return log
+
+
+def _bin_outputs(c) -> Outputs | None:
+    """RCOU's channels C1..C8 (µs) in time order, or None when the log has none (LOG_BITMASK bit 10, RCOUT)."""
+    d = c.data.get("RCOU")
+    cols = [f"C{i}" for i in range(1, 9) if d is not None and f"C{i}" in d.dtype.names]
+    if d is None or len(d) < 2 or not cols:
+        return None
+    t = d["TimeUS"].astype(float) * 1e-6
+    order = np.argsort(t, kind="stable")
+    return Outputs(t[order], np.column_stack([c.column("RCOU", k)[order] for k in cols]).astype(float), "RCOU")
 
 
 def _banner(c) -> str:
