@@ -7,13 +7,25 @@ oracle, the best set by the score with the smoothness term, said with what limit
 from __future__ import annotations
 
 import statistics
+from functools import cache
 from typing import Any
 
 from ksbo_bench.report.describe import condition, vehicle
 from ksbo_mav.smoothness import FLOOR_DPS, smooth_penalty
 
-#: The copter profiles' score constants (params/*-copter.toml [score]).
-RATIO, WEIGHT, BAND = 2.0, 0.5, 0.15
+@cache
+def _constants() -> tuple[float, float, float]:
+    """The copter profiles' score constants ([score] unsafe_rms_ratio, smooth_weight, rough_band), from the profile
+    itself (ArduPilot's and PX4's set the same)."""
+    from ksbo_mav.profiles import load_profile
+
+    spec = load_profile("ardupilot-copter").score_spec
+    return float(spec.unsafe_rms_ratio), float(spec.smooth_weight), float(spec.rough_band)
+
+
+def _fmt(v: float | None, spec: str) -> str:
+    """``v`` formatted, or a dash where it is missing (None, or NaN: a mean of nothing)."""
+    return "–" if v is None or v != v else format(v, spec)
 
 
 def _mean(rows: list[dict[str, Any]], field: str) -> float | None:
@@ -23,7 +35,8 @@ def _mean(rows: list[dict[str, Any]], field: str) -> float | None:
 
 def _score(rms: float, rms0: float, rough: float | None, rough0: float | None) -> float:
     """The copter profiles' score of a lap RMS and roughness against the baseline's (ksbo_mav.mav.mission)."""
-    return 1.0 - (rms / rms0 + smooth_penalty(rough, rough0, WEIGHT, BAND)) / RATIO
+    ratio, weight, band = _constants()
+    return 1.0 - (rms / rms0 + smooth_penalty(rough, rough0, weight, band)) / ratio
 
 
 #: The validation manoeuvres a cell may fly beside the figure-8, with the figure each is judged by
@@ -97,18 +110,17 @@ def cell(rec: dict[str, Any], ranges: dict[str, tuple[float, float]]) -> list[st
     caption = (f"**{vehicle(k)}, {k.get('condition') or condition(k)}, {k.get('reps', 3)} flight(s) per set, "
                f"{(rec.get('run', {}).get('started') or '')[:10]}**")
     out = [head, "|" + "---|" * (len(axes) + 6 + motors + len(flown))]
-    fmt = lambda v, s: "–" if v is None else format(v, s)  # noqa: E731
     scored = [r for r in rows if r["P"] is not None]
     best = max(scored, key=lambda r: r["P"]) if scored else None
     for r in sorted(rows, key=lambda r: tuple(r["gains"].get(p, 0.0) for p in axes)):
         mark = "**" if best is not None and r["set"] == best["set"] else ""
         bad = f" ({r['bad']} not ok)" if r["bad"] else ""
-        out.append(f"| {mark}{r['set']}{mark} | " + " | ".join(fmt(r["gains"].get(p), "g") for p in axes)
-                   + f" | {r['n']}{bad} | {fmt(r['rms'], '.3f')} | {fmt(r['rough'], '.2f')} | "
-                   + (f"{fmt(r['motor'], '.1f')} | " if motors else "")
-                   + f"{fmt(r['tilt'], '.1f')} | "
-                   + "".join(f"{fmt(r['manoeuvres'].get(w), MANOEUVRES[w][2])} | " for w in flown)
-                   + f"{fmt(r['P_track'], '.3f')} | {mark}{fmt(r['P'], '.3f')}{mark} |")
+        out.append(f"| {mark}{r['set']}{mark} | " + " | ".join(_fmt(r["gains"].get(p), "g") for p in axes)
+                   + f" | {r['n']}{bad} | {_fmt(r['rms'], '.3f')} | {_fmt(r['rough'], '.2f')} | "
+                   + (f"{_fmt(r['motor'], '.1f')} | " if motors else "")
+                   + f"{_fmt(r['tilt'], '.1f')} | "
+                   + "".join(f"{_fmt(r['manoeuvres'].get(w), MANOEUVRES[w][2])} | " for w in flown)
+                   + f"{_fmt(r['P_track'], '.3f')} | {mark}{_fmt(r['P'], '.3f')}{mark} |")
     return [caption, "\n".join(out)]
 
 
@@ -145,8 +157,9 @@ def report(sw, recs: list[dict[str, Any]]) -> list[str]:
         head[1] += "\n" + _headline(rec, ranges)
         cells += cell(rec, ranges)
     out = [*head, *cells]
+    ratio, weight, band = _constants()
     out.append(f"P from each set's mean lap RMS and roughness against the baseline's in the same cell: P = 1 - (RMS / "
-               f"RMS_base + {WEIGHT:g} max(0, rough - rough_base - {BAND:g} r) / r) / {RATIO:g}, r = max(rough_base, "
+               f"RMS_base + {weight:g} max(0, rough - rough_base - {band:g} r) / r) / {ratio:g}, r = max(rough_base, "
                f"{FLOOR_DPS:g}) (the copter "
                "profiles' score); a set with a flight that did not end ok is no candidate.")
     return out
@@ -173,10 +186,6 @@ def _refly_means(rec: dict[str, Any]) -> tuple[dict[str, float], dict[str, float
         return {k: statistics.mean([x for x in v if x is not None] or [float("nan")]) for k, v in d.items()}
 
     return means(res.get("reflown", {})), means(res.get("reflown_rough", {})), means(res.get("reflown_motor", {}))
-
-
-def _or_dash(v: float | None, spec: str = ".1f") -> str:
-    return "–" if v is None or v != v else format(v, spec)
 
 
 def _where(rec: dict[str, Any]) -> tuple:
@@ -216,9 +225,8 @@ def one_pack(sw, recs: list[dict[str, Any]]) -> list[str]:
                    f"{rec['key'].get('seed')} | {rec['flights']['total']} | {saf.get('aborted')} | "
                    f"{saf.get('crashed')} | {saf.get('unsafe')} | {m['baseline']:.3f} / {g.get('baseline', 0):.2f} | "
                    f"{m['rec']:.3f} / {g.get('rec', 0):.2f} | "
-                   + (f"{_or_dash(mo.get('baseline'))} / {_or_dash(mo.get('rec'))} | " * motors)
-                   + f"{'–' if cut is None else f'{cut:.0%}'} | {share} | "
-                   f"{'–' if P is None else f'{P:.3f}'} |")
+                   + (f"{_fmt(mo.get('baseline'), '.1f')} / {_fmt(mo.get('rec'), '.1f')} | " * motors)
+                   + f"{_fmt(cut, '.0%')} | {share} | {_fmt(P, '.3f')} |")
     out = ["\n".join(out)]
     out.append("Cut: 1 − the recommendation's mean re-flown lap RMS / the baseline's, both re-flown in turn on the "
                "vehicle the campaign left hovering; share: that cut over the oracle's, re-flown in turn with the two: "
